@@ -91,6 +91,7 @@ static void sobol_init(qmc_seq *seq)
     }
     seed[d] = (uint32_t)qmc__hash3(spec->seed, 0, QMC__TAG_SHUFFLE);
     seed[d + 1] = 0;
+    memset(seed + d + 2, 0, QMC__SOBOL_PAD * sizeof *seed);
     if (has_w64(spec)) {
         uint64_t *w64 = (uint64_t *)(t + u32_words(d));
         for (size_t k = 0; k < ((size_t)BITS + 1) * d; k++)

@@ -161,7 +161,9 @@ fill_blocks(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
     const sobol_view s = view(seq);
     const uint32_t d = seq->spec.dims;
     const uint32_t d8 = j_begin + ((j_end - j_begin) & ~7u);
-    uint32_t st[CHUNK]; /* state of dimension j at st[j - j_begin] */
+    /* state of dimension j at st[j - j_begin], + 8 spare lanes for the last vector */
+    uint32_t st[CHUNK + 8];
+    memset(st + (j_end - j_begin), 0, 8 * sizeof *st);
     for (uint32_t j = j_begin; j < j_end; j++)
         st[j - j_begin] = gather(s.v + (size_t)j * BITS, (uint32_t)start);
     const uint32_t block = block_points(j_end - j_begin, count);
@@ -172,6 +174,38 @@ fill_blocks(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
             uint64_t i = start + p0 + p;
             row[p] = s.w + (size_t)(i == start ? BITS : __builtin_ctz((uint32_t)i)) * d;
         }
+        if (d8 < j_end) {
+            /*
+             * The last 1..7 dimensions as one vector too: the scalar hash
+             * of a few trailing dimensions cost as much as the vectors of
+             * all the others (d = 30: 6 scalar lanes against 24 vector
+             * ones).  The loads run past the row ends into the next row,
+             * the seeds or QMC__SOBOL_PAD zeros.  The store writes all 8
+             * lanes: the spare ones land on the next points' first
+             * dimensions, which are written afterwards (this group runs
+             * first, and points and blocks go in order), so only stores
+             * that would pass the end of the output, or of the dimensions
+             * an earlier pass of CHUNK wrote, copy the t lanes alone.
+             */
+            const uint32_t t = j_end - d8;
+            const size_t value = qmc_format_bytes(fmt), words = t * value / 4;
+            const size_t limit = j_begin == 0 ? (size_t)count * d : 0;
+            u32x8 x = load8(st + (d8 - j_begin)), seed = load8(s.seed + d8);
+            for (uint32_t p = 0; p < n; p++) {
+                const size_t at = (size_t)(p0 + p) * d + d8;
+                x ^= load8(row[p] + d8);
+                if (at + 8 <= limit) {
+                    store8(out, at, finish8(x, seed, scr), fmt);
+                    continue;
+                }
+                uint32_t lanes[16];
+                store8(lanes, 0, finish8(x, seed, scr), fmt);
+                char *o = (char *)out + at * value;
+                for (size_t w = 0; w < words; w++)
+                    memcpy(o + 4 * w, lanes + w, 4);
+            }
+            memcpy(st + (d8 - j_begin), &x, t * sizeof(uint32_t));
+        }
         for (uint32_t j = j_begin; j < d8; j += 8) {
             u32x8 x = load8(st + (j - j_begin)), seed = load8(s.seed + j);
             for (uint32_t p = 0; p < n; p++) {
@@ -179,14 +213,6 @@ fill_blocks(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
                 store8(out, (size_t)(p0 + p) * d + j, finish8(x, seed, scr), fmt);
             }
             memcpy(st + (j - j_begin), &x, sizeof x);
-        }
-        for (uint32_t j = d8; j < j_end; j++) {
-            uint32_t x = st[j - j_begin];
-            for (uint32_t p = 0; p < n; p++) {
-                x ^= row[p][j];
-                store(out, (size_t)(p0 + p) * d + j, finish(x, s.seed[j], scr), fmt);
-            }
-            st[j - j_begin] = x;
         }
     }
 }

@@ -39,9 +39,15 @@ static inline int has_w64(const qmc_seq_spec *spec)
     return spec->scramble != QMC_SCRAMBLE_OWEN;
 }
 
+/* Zero words after the seeds, so that the last group of dimensions can be
+ * computed as a whole vector of 8 (sobol_fill.h): its loads may run up to
+ * 7 words past the end of the last prefix row or of the seeds. */
+enum { QMC__SOBOL_PAD = 8 };
+
 static inline size_t u32_words(size_t d)
 {
-    return (2 * (size_t)BITS + 1) * d + d + 2; /* even: W64 is 8-aligned */
+    /* even: W64 is 8-aligned */
+    return (2 * (size_t)BITS + 1) * d + d + 2 + QMC__SOBOL_PAD;
 }
 
 static inline sobol_view view(const qmc_seq *seq)

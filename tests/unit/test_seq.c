@@ -439,6 +439,65 @@ static void test_scrambles_randomize(void **state)
     qmc_seq_free(b);
 }
 
+/* The last group of 1..7 dimensions is computed as a whole vector whose
+ * spare lanes are stored over the next points' first dimensions
+ * (sobol_fill.h): every value must still equal at(), in every format, and
+ * nothing may be written past the end of the output (guard bytes), for
+ * short fills, widths around a multiple of 8, and a second CHUNK pass. */
+static void test_sobol_fill_tail_group(void **state)
+{
+    (void)state;
+    const qmc_scramble scr[] = {QMC_SCRAMBLE_NONE, QMC_SCRAMBLE_SHIFT, QMC_SCRAMBLE_OWEN};
+    const qmc_format fmts[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
+    const uint32_t dims[] = {1, 2, 3, 7, 9, 15, 30, 263};
+    const uint64_t counts[] = {1, 2, 3, 5, 64, 65, 200};
+    enum { GUARD = 64 };
+    for (size_t a = 0; a < 3; a++)
+        for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
+            qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], scr[a], 11, 0);
+            for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
+                const uint64_t start = 1 + 977 * c, count = counts[c];
+                for (size_t f = 0; f < 3; f++) {
+                    const size_t value = qmc_format_bytes(fmts[f]);
+                    const size_t used = (size_t)count * dims[b] * value;
+                    uint8_t *buf = malloc(used + GUARD);
+                    memset(buf, 0x5a, used + GUARD);
+                    assert_int_equal(qmc_seq_fill(s, start, count, fmts[f], buf), 0);
+                    for (size_t g = 0; g < GUARD; g++)
+                        if (buf[used + g] != 0x5a)
+                            fail_msg("%s %s d=%u count=%llu: byte %zu past the end written",
+                                     qmc_scramble_name(scr[a]), qmc_format_name(fmts[f]),
+                                     dims[b], (unsigned long long)count, g);
+                    for (uint64_t p = 0; p < count; p++)
+                        for (uint32_t j = 0; j < dims[b]; j++) {
+                            double x = at(s, start + p, j);
+                            size_t i = (size_t)p * dims[b] + j;
+                            int same;
+                            if (fmts[f] == QMC_FORMAT_F64)
+                                same = memcmp(&x, buf + 8 * i, 8) == 0;
+                            else if (fmts[f] == QMC_FORMAT_U32) {
+                                uint32_t u;
+                                memcpy(&u, buf + 4 * i, 4);
+                                same = u == (uint32_t)(x * 0x1p32);
+                            } else {
+                                float v;
+                                memcpy(&v, buf + 4 * i, 4);
+                                same = v == (float)((uint32_t)(x * 0x1p32) >> 8) * 0x1p-24f;
+                            }
+                            if (!same)
+                                fail_msg("%s %s d=%u count=%llu: point %llu dim %u differs "
+                                         "from at()", qmc_scramble_name(scr[a]),
+                                         qmc_format_name(fmts[f]), dims[b],
+                                         (unsigned long long)count,
+                                         (unsigned long long)p, j);
+                        }
+                    free(buf);
+                }
+            }
+            qmc_seq_free(s);
+        }
+}
+
 /* The fill kernels built for each instruction set give the same bytes as
  * the baseline build, for every format and scramble, including chunk and
  * group tails (dims 300 = one full chunk of 256 + 44; 44 = 5 groups + 4). */
@@ -576,6 +635,7 @@ int main(void)
         cmocka_unit_test(test_values_below_one_at_the_end),
         cmocka_unit_test(test_scrambles_randomize),
         cmocka_unit_test(test_instruction_sets_agree),
+        cmocka_unit_test(test_sobol_fill_tail_group),
         cmocka_unit_test(test_limits_and_errors),
         cmocka_unit_test(test_names_round_trip),
     };
