@@ -27,6 +27,7 @@
 #include <string.h>
 
 #include "qmc/integrate.h"
+#include "qmc/quad.h"
 #include "qmc/testfn.h"
 
 typedef struct run_out {
@@ -184,6 +185,41 @@ static void test_clean_run_raises_nothing(void **state)
     assert_int_equal(o.rep.method_used, QMC_METHOD_CUBATURE);
 }
 
+/* auto follows the crossovers measured in core/integrate.c: cubature for
+ * analytic integrands up to 10 dims once the budget buys one region, for
+ * continuous ones up to 4 dims (50 regions), RQMC otherwise. */
+static uint64_t auto_budget;
+
+static void set_auto_budget(qmc_integrate_spec *s)
+{
+    s->max_evals = auto_budget;
+    s->tol_rel = 1e-3;
+}
+
+static qmc_method auto_picks(const char *name, uint32_t dims, uint64_t budget)
+{
+    auto_budget = budget;
+    run_out o = run(name, dims, QMC_METHOD_AUTO, set_auto_budget);
+    assert_int_equal(o.err, 0);
+    return o.rep.method_used;
+}
+
+static void test_auto_choice(void **state)
+{
+    (void)state;
+    const uint64_t region10 = qmc_cubature_region_evals(10);
+    assert_int_equal(region10, 1245);
+    assert_int_equal(auto_picks("genz-gaussian", 10, region10), QMC_METHOD_CUBATURE);
+    assert_int_equal(auto_picks("genz-gaussian", 10, region10 - 1), QMC_METHOD_RQMC);
+    assert_int_equal(auto_picks("genz-oscillatory", 11, 100000000), QMC_METHOD_RQMC);
+    assert_int_equal(auto_picks("genz-continuous", 4, 1000000), QMC_METHOD_CUBATURE);
+    assert_int_equal(auto_picks("genz-continuous", 4,
+                                50 * qmc_cubature_region_evals(4) - 1), QMC_METHOD_RQMC);
+    assert_int_equal(auto_picks("genz-continuous", 5, 1000000), QMC_METHOD_RQMC);
+    assert_int_equal(auto_picks("genz-discontinuous", 2, 1000000), QMC_METHOD_RQMC);
+    assert_int_equal(auto_picks("exp", 1, 1000), QMC_METHOD_GAUSS_KRONROD);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -197,6 +233,7 @@ int main(void)
         cmocka_unit_test(test_cubature_memory_bound),
         cmocka_unit_test(test_refusals),
         cmocka_unit_test(test_clean_run_raises_nothing),
+        cmocka_unit_test(test_auto_choice),
     };
     return cmocka_run_group_tests_name("stability", tests, NULL, NULL);
 }
