@@ -3,7 +3,8 @@
  * integrate_methods.h).
  *
  * How each one is given its budget B of evaluations:
- *   gsl-plain   gsl_monte_plain_integrate, calls = B (mt19937, seed 1).
+ *   gsl-plain   gsl_monte_plain_integrate, calls = B (mt19937 seeded with
+ *               the integrand's draw seed, as all randomized methods are).
  *   gsl-miser   gsl_monte_miser_integrate, calls = B, default parameters.
  *   gsl-vegas   GSL's recommended two stages: a warm-up (stage 0, 5
  *               iterations of B/50 calls) that only trains the grid, then
@@ -16,7 +17,7 @@
  *               check the budget only after a whole rule or refinement,
  *               so they may overshoot it: evals records what they spent.
  *   auto        qmc_integrate, method auto, tol_rel 1e-14 (unreachable,
- *               so it spends the budget), max_evals = B, seed 1.
+ *               so it spends the budget), max_evals = B, seed = draw seed.
  *   rqmc        qmc_integrate, method rqmc, owen-scrambled Sobol, 16
  *               replicates of the largest power of two n with 16 n <= B.
  *   cubature    qmc_integrate, method cubature (Genz-Malik), tol_rel
@@ -145,7 +146,7 @@ static void run_gsl_mc(const bench_job *job, peer_ctx *c, bench_out *out)
         out->outcome = BENCH_OOM;
         return;
     }
-    gsl_rng_set(rng, 1);
+    gsl_rng_set(rng, job->draw_seed); /* a fresh stream per integrand draw */
     double *hi = lo + d;
     for (size_t i = 0; i < d; i++)
         hi[i] = 1.0;
@@ -280,7 +281,7 @@ static void run_ours(const bench_job *job, const qmc_integrand *f, bench_out *ou
     qmc_integrate_spec spec;
     qmc_integrate_spec_init(&spec);
     spec.max_evals = job->budget;
-    spec.sampling.seed = 1;
+    spec.sampling.seed = job->draw_seed;
     switch (job->method) {
     case BENCH_M_AUTO:
         spec.method = QMC_METHOD_AUTO;
@@ -289,7 +290,7 @@ static void run_ours(const bench_job *job, const qmc_integrand *f, bench_out *ou
     case BENCH_M_RQMC: {
         spec.method = QMC_METHOD_RQMC;
         qmc_sampling_spec_init(&spec.sampling, QMC_SAMPLER_RQMC);
-        spec.sampling.seed = 1;
+        spec.sampling.seed = job->draw_seed;
         uint64_t n = 1;
         while (2 * n * spec.sampling.reps <= job->budget)
             n *= 2;

@@ -1,16 +1,23 @@
 /*
  * integrate_report.c - part 3 of bench_integrate (see integrate_report.h).
  *
- * Equal wall time.  For each auto run (time t, error e) of a family and
+ * Cells.  Each (method, family, d, budget) ran on the same draws of the
+ * integrand; a cell sums them up as the geometric mean over the draws of
+ * the error relative to int |f| (floored at BENCH_COMPARE_FLOOR: rounding
+ * compares equal), and the median of the wall times.  The geometric mean
+ * is the mean number of correct digits, Genz's own yardstick; unlike a
+ * single draw it does not crown a method for one lucky u.  A cell counts
+ * only if every draw succeeded.
+ *
+ * Equal wall time.  For each auto cell (time t, error e) of a family and
  * dimension, the best peer is the smallest error among that family's and
- * dimension's successful peer runs (any peer, any budget) that took at
+ * dimension's complete peer cells (any peer, any budget) that took at
  * most t seconds: a step envelope, not an interpolation, so peers get no
  * credit for budgets they did not run.  The ratio is e / best; "n/a" when
- * no peer run finished within t.  The target per (family, d) is that every
- * comparable auto run has ratio <= 1, and <= 1/3 at d >= 20; an auto run
- * that was refused counts as MISSED for its budget (peers answered); the
- * count that ignores refusals is printed too.  Errors below
- * BENCH_COMPARE_FLOOR of int |f| are rounding and compare equal.
+ * no peer cell finished within t.  The target per (family, d) is that every
+ * comparable auto cell has ratio <= 1, and <= 1/3 at d >= 20; an auto cell
+ * with a refused draw counts as MISSED for its budget (peers answered); the
+ * count that ignores refusals is printed too.
  *
  * Honesty.  For each method, over its successful runs that report an error
  * estimate: ratio = reported estimate / actual error (floored, see
@@ -49,14 +56,52 @@ static double quantile(const double *v, size_t n, double q)
     return v[i] + (pos - (double)i) * (v[i + 1] - v[i]);
 }
 
-static const bench_rec *find(const bench_rec *recs, size_t n, bench_method m,
-                             qmc_genz_family fam, uint32_t d, uint64_t budget)
+/* What the draws of one (method, family, d, budget) add up to. */
+typedef struct bench_cell {
+    int runs, ok, refused;   /* draws found; succeeded; refused (budget) */
+    double err;              /* geometric mean of floored |error| / int |f| */
+    double seconds;          /* median wall time */
+    int method_used;         /* ours: the qmc_method of every draw, -2 if mixed */
+    const bench_rec *first;  /* the first draw (for notes), or NULL */
+} bench_cell;
+
+static bench_cell cell_of(const bench_rec *recs, size_t n, bench_method m, qmc_genz_family fam,
+                          uint32_t d, uint64_t budget)
 {
-    for (size_t i = 0; i < n; i++)
-        if (recs[i].job.method == m && recs[i].job.family == fam && recs[i].job.dims == d &&
-            recs[i].job.budget == budget)
-            return &recs[i];
-    return NULL;
+    bench_cell c = {0, 0, 0, NAN, NAN, -1, NULL};
+    double secs[64], log_sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        const bench_rec *r = &recs[i];
+        if (r->job.method != m || r->job.family != fam || r->job.dims != d ||
+            r->job.budget != budget)
+            continue;
+        if (!c.first) {
+            c.first = r;
+            c.method_used = r->out.method_used;
+        }
+        c.runs++;
+        c.refused += r->out.outcome == BENCH_REFUSED;
+        if (r->out.outcome != BENCH_OK)
+            continue;
+        if (r->out.method_used != c.method_used)
+            c.method_used = -2;
+        log_sum += log(bench_floored_error(r, BENCH_COMPARE_FLOOR) / fabs(r->absint));
+        if (c.ok < 64)
+            secs[c.ok] = r->out.seconds;
+        c.ok++;
+    }
+    if (c.ok && c.ok == c.runs) {
+        int k = c.ok < 64 ? c.ok : 64;
+        qsort(secs, (size_t)k, sizeof *secs, cmp_double);
+        c.err = exp(log_sum / c.ok);
+        c.seconds = k % 2 ? secs[k / 2] : 0.5 * (secs[k / 2 - 1] + secs[k / 2]);
+    }
+    return c;
+}
+
+static int cell_complete(const bench_cell *c)
+{
+    return c->runs > 0 && c->ok == c->runs;
 }
 
 static const char *short_family(qmc_genz_family f)
@@ -70,11 +115,13 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
                           int *met, int *missed)
 {
     if (csv)
-        fprintf(csv, "family,dims,budget,auto_outcome,auto_method,auto_seconds,auto_error,"
-                     "auto_error_rel_absf,best_peer,best_peer_budget,best_peer_seconds,"
-                     "best_peer_error,ratio,target\n");
-    printf("\nAuto vs the best peer at equal wall time: ratio = auto |error| / smallest peer "
-           "|error| among peer runs that took no longer (step envelope).\n");
+        fprintf(csv, "family,dims,budget,draws,auto_outcome,auto_method,auto_seconds,"
+                     "auto_error_rel,best_peer,best_peer_budget,best_peer_seconds,"
+                     "best_peer_error_rel,ratio,target\n");
+    printf("\nAuto vs the best peer at equal wall time, over %zu integrand draws per family "
+           "and d: ratio = auto's error / the smallest peer error among peer cells that took "
+           "no longer (step envelope); errors are geometric means over the draws of |error| / "
+           "int |f|, times are medians.\n", g->draws);
     printf("Target: ratio <= 1 for every family and d, <= 1/3 at d >= 20.  Columns: auto's "
            "budget.\n\n");
     printf("%-15s %3s", "family", "d");
@@ -92,52 +139,53 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
             int any = 0, refused = 0;
             char best_top[64] = "-";
             for (size_t b = 0; b < g->n_budgets; b++) {
-                const bench_rec *a = find(recs, n, BENCH_M_AUTO, fam, d, g->budgets[b]);
-                if (!a || a->out.outcome != BENCH_OK) {
-                    printf(" %9s", a ? (a->out.outcome == BENCH_REFUSED ? "refused" : "FAIL")
-                                     : "-");
-                    if (a && a->out.outcome != BENCH_SKIPPED)
+                bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, g->budgets[b]);
+                if (!cell_complete(&a)) {
+                    int skipped = a.first && a.first->out.outcome == BENCH_SKIPPED;
+                    printf(" %9s", !a.runs ? "-" : a.refused ? "refused" : "FAIL");
+                    if (a.runs && !skipped)
                         refused++;
-                    if (csv && a)
-                        fprintf(csv, "%s,%u,%llu,%s,,,,,,,,,,%.4f\n", qmc_genz_family_name(fam),
-                                d, (unsigned long long)g->budgets[b],
-                                bench_outcome_name(a->out.outcome), target);
+                    if (csv && a.runs)
+                        fprintf(csv, "%s,%u,%llu,%d,%s,,,,,,,,,%.4f\n",
+                                qmc_genz_family_name(fam), d,
+                                (unsigned long long)g->budgets[b], a.runs,
+                                a.refused ? "refused" : "failed", target);
                     continue;
                 }
-                double ea = bench_floored_error(a, BENCH_COMPARE_FLOOR);
-                const bench_rec *best = NULL;
-                for (size_t i = 0; i < n; i++) {
-                    const bench_rec *p = &recs[i];
-                    if (!bench_method_is_peer(p->job.method) || p->job.family != fam ||
-                        p->job.dims != d || p->out.outcome != BENCH_OK ||
-                        p->out.seconds > a->out.seconds)
+                bench_cell best = {0, 0, 0, NAN, NAN, -1, NULL};
+                for (int m = 0; m < BENCH_M_COUNT; m++) {
+                    if (!bench_method_is_peer((bench_method)m))
                         continue;
-                    if (!best || bench_floored_error(p, BENCH_COMPARE_FLOOR) <
-                                     bench_floored_error(best, BENCH_COMPARE_FLOOR))
-                        best = p;
+                    for (size_t pb = 0; pb < g->n_budgets; pb++) {
+                        bench_cell p = cell_of(recs, n, (bench_method)m, fam, d, g->budgets[pb]);
+                        if (cell_complete(&p) && p.seconds <= a.seconds &&
+                            (!best.first || p.err < best.err))
+                            best = p;
+                    }
                 }
-                double ratio = best ? ea / bench_floored_error(best, BENCH_COMPARE_FLOOR) : NAN;
-                if (best) {
+                double ratio = best.first ? a.err / best.err : NAN;
+                if (best.first) {
                     any = 1;
                     worst = fmax(worst, ratio);
                     printf(" %9.3g", ratio);
                     snprintf(best_top, sizeof best_top, "%s@%.0e %.2gs",
-                             bench_method_name(best->job.method), (double)best->job.budget,
-                             best->out.seconds);
+                             bench_method_name(best.first->job.method),
+                             (double)best.first->job.budget, best.seconds);
                 } else {
                     printf(" %9s", "n/a");
-                    snprintf(best_top, sizeof best_top, "none within %.2gs", a->out.seconds);
+                    snprintf(best_top, sizeof best_top, "none within %.2gs", a.seconds);
                 }
                 if (csv) {
-                    fprintf(csv, "%s,%u,%llu,ok,%s,%.6g,%.6e,%.6e,", qmc_genz_family_name(fam),
-                            d, (unsigned long long)g->budgets[b],
-                            qmc_method_name((qmc_method)a->out.method_used), a->out.seconds,
-                            a->abs_err, a->abs_err / a->absint);
-                    if (best)
+                    fprintf(csv, "%s,%u,%llu,%d,ok,%s,%.6g,%.6e,", qmc_genz_family_name(fam), d,
+                            (unsigned long long)g->budgets[b], a.runs,
+                            a.method_used >= 0 ? qmc_method_name((qmc_method)a.method_used)
+                                               : "mixed",
+                            a.seconds, a.err);
+                    if (best.first)
                         fprintf(csv, "%s,%llu,%.6g,%.6e,%.6g,%.4f\n",
-                                bench_method_name(best->job.method),
-                                (unsigned long long)best->job.budget, best->out.seconds,
-                                best->abs_err, ratio, target);
+                                bench_method_name(best.first->job.method),
+                                (unsigned long long)best.first->job.budget, best.seconds,
+                                best.err, ratio, target);
                     else
                         fprintf(csv, ",,,,,%.4f\n", target);
                 }
@@ -356,41 +404,44 @@ static void outcomes_table(const bench_rec *recs, size_t n, const bench_grid *g,
 }
 
 /* At the largest budget: auto's error beside our other two methods and the
- * best peer at the same budget, so a poor choice by auto stands out. */
+ * best peer at the same budget (cells: geometric mean of |error| / int |f|
+ * over the draws, median seconds), so a poor choice by auto stands out. */
 static void top_budget_table(const bench_rec *recs, size_t n, const bench_grid *g)
 {
     const uint64_t top = g->budgets[g->n_budgets - 1];
-    printf("\nAt the budget of %.0e evaluations: |error| (and seconds) of ours and of the most "
-           "accurate peer at that budget\n\n", (double)top);
+    printf("\nAt the budget of %.0e evaluations: |error| / int |f| (geometric mean over the "
+           "draws) and median seconds of ours and of the most accurate peer at that budget\n\n",
+           (double)top);
     printf("%-15s %3s %-9s %18s %18s %18s %18s  %s\n", "family", "d", "auto ran", "auto",
            "rqmc", "cubature", "best peer", "peer");
     for (size_t di = 0; di < g->n_dims; di++) {
         for (size_t fi = 0; fi < g->n_families; fi++) {
             qmc_genz_family fam = g->families[fi];
             uint32_t d = g->dims[di];
-            const bench_rec *a = find(recs, n, BENCH_M_AUTO, fam, d, top);
+            bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, top);
             printf("%-15s %3u %-9s", short_family(fam), d,
-                   a && a->out.method_used >= 0 && a->out.outcome == BENCH_OK
-                       ? qmc_method_name((qmc_method)a->out.method_used)
-                       : "-");
+                   a.method_used >= 0 && cell_complete(&a)
+                       ? qmc_method_name((qmc_method)a.method_used)
+                       : a.method_used == -2 ? "mixed" : "-");
             static const bench_method ours[] = {BENCH_M_AUTO, BENCH_M_RQMC, BENCH_M_CUBATURE};
             for (size_t k = 0; k < 3; k++) {
-                const bench_rec *r = find(recs, n, ours[k], fam, d, top);
-                if (r && r->out.outcome == BENCH_OK)
-                    printf("  %9.2e (%5.3fs)", r->abs_err, r->out.seconds);
+                bench_cell c = cell_of(recs, n, ours[k], fam, d, top);
+                if (cell_complete(&c))
+                    printf("  %9.2e (%5.3fs)", c.err, c.seconds);
                 else
-                    printf(" %18s", r ? bench_outcome_name(r->out.outcome) : "-");
+                    printf(" %18s", c.first ? bench_outcome_name(c.first->out.outcome) : "-");
             }
-            const bench_rec *best = NULL;
+            bench_cell best = {0, 0, 0, NAN, NAN, -1, NULL};
             for (int m = 0; m < BENCH_M_COUNT; m++) {
-                const bench_rec *r = find(recs, n, (bench_method)m, fam, d, top);
-                if (r && bench_method_is_peer(r->job.method) && r->out.outcome == BENCH_OK &&
-                    (!best || r->abs_err < best->abs_err))
-                    best = r;
+                if (!bench_method_is_peer((bench_method)m))
+                    continue;
+                bench_cell c = cell_of(recs, n, (bench_method)m, fam, d, top);
+                if (cell_complete(&c) && (!best.first || c.err < best.err))
+                    best = c;
             }
-            if (best)
-                printf("  %9.2e (%5.3fs)  %s\n", best->abs_err, best->out.seconds,
-                       bench_method_name(best->job.method));
+            if (best.first)
+                printf("  %9.2e (%5.3fs)  %s\n", best.err, best.seconds,
+                       bench_method_name(best.first->job.method));
             else
                 printf(" %18s\n", "none");
         }

@@ -44,6 +44,7 @@ typedef struct bench_grid {
     size_t n_families;
     const uint64_t *budgets;
     size_t n_budgets;
+    size_t draws;              /* integrands per (family, d): seeds 1 .. draws */
 } bench_grid;
 
 /* Our memory bound per run: cubature's default 64 MiB of regions plus 32
