@@ -28,12 +28,19 @@
  * 2^30 corners needs no more memory than a chunk; the region's cost is
  * checked against the budget before anything is evaluated.  Nothing here
  * allocates, prints or keeps state.
+ *
+ * The caller's interrupt hook is polled before the first region and after
+ * every chunk, counting evaluations (see interrupt.h): at low d that is
+ * every few hundred region splits, at high d several times inside one
+ * region, whose 2^d corners could otherwise run for seconds.  A hook that
+ * fires abandons the region half evaluated and returns QMC_ECANCELED.
  */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "err_heap.h"
+#include "interrupt.h"
 #include "msg.h"
 #include "qmc/quad.h"
 
@@ -72,6 +79,8 @@ typedef struct cub_state {
     double val0;
     cub_sum pairs, corners;
     uint64_t evals, nonfinite;
+    qmc__poll poll;
+    int stopped;      /* the hook fired: stop at once */
 } cub_state;
 
 /* A region record: [estimate, error, c[d], h[d]]. */
@@ -131,11 +140,14 @@ static void heap_down(cub_state *s, uint32_t i)
 
 /* ---- the rule ------------------------------------------------------------ */
 
-/* Evaluates the chunk and files each value by its tag. */
+/* Evaluates the chunk and files each value by its tag; once stopped, drops
+ * it unevaluated. */
 static void flush(cub_state *s)
 {
-    if (s->fill == 0)
+    if (s->fill == 0 || s->stopped) {
+        s->fill = 0;
         return;
+    }
     s->f->eval(s->f->ctx, s->px, s->fill, s->d, s->pf);
     s->evals += s->fill;
     for (size_t i = 0; i < s->fill; i++) {
@@ -157,6 +169,8 @@ static void flush(cub_state *s)
             break;
         }
     }
+    if (qmc__poll_work(&s->poll, s->fill))
+        s->stopped = 1;
     s->fill = 0;
 }
 
@@ -176,8 +190,6 @@ static double clamp01(double v)
     return v < 0.0 ? 0.0 : (v >= 1.0 ? CUB_ONE_MINUS : v);
 }
 
-/* Applies the rule to region r: writes its estimate, error and split
- * axis. */
 /*
  * The region's error estimate.  |R7 - R5| measures the degree-5 rule's
  * error while R7 is what we report, so taken bare it is pessimistic by
@@ -206,6 +218,8 @@ static double sharpen(double e5, double r7)
     return e5 * cbrt(rel);
 }
 
+/* Applies the rule to region r: writes its estimate, error and split
+ * axis; returns early, leaving them unset, once s->stopped. */
 static void apply_rule(cub_state *s, uint32_t r)
 {
     static const double l2 = 0.35856858280031809199; /* sqrt(9/70) */
@@ -225,7 +239,7 @@ static void apply_rule(cub_state *s, uint32_t r)
             x[i] = clamp01(c[i] + off[k] * h[i]);
         }
     }
-    for (uint32_t i = 0; i < d; i++) {
+    for (uint32_t i = 0; i < d && !s->stopped; i++) {
         for (uint32_t j = i + 1; j < d; j++) {
             for (int k = 0; k < 4; k++) {
                 double *x = next_point(s, c, TAG_PAIR);
@@ -236,12 +250,14 @@ static void apply_rule(cub_state *s, uint32_t r)
     }
     /* d < 64 here: the caller checked 2^d against the budget. */
     uint64_t ncorner = (uint64_t)1 << d;
-    for (uint64_t k = 0; k < ncorner; k++) {
+    for (uint64_t k = 0; k < ncorner && !s->stopped; k++) {
         double *x = next_point(s, c, TAG_CORNER);
         for (uint32_t j = 0; j < d; j++)
             x[j] = clamp01(c[j] + ((k >> j) & 1 ? l5 : -l5) * h[j]);
     }
     flush(s);
+    if (s->stopped)
+        return;
 
     /* Genz and Malik's weights for the unit-volume cube. */
     double dd = (double)d;
@@ -297,6 +313,18 @@ static void totals(const cub_state *s, double *est, double *err)
 static double tolerance(const qmc_cubature_opts *o, double est)
 {
     return fmax(o->tol_abs, o->tol_rel * fabs(est));
+}
+
+/* The interrupt hook fired: no estimate, only the evaluations spent. */
+static int cancelled(const cub_state *s, qmc__msg *m, qmc_result *res)
+{
+    qmc_result_init(res);
+    res->error_kind = QMC_ERROR_ESTIMATE;
+    res->dims = s->d;
+    res->evals = s->evals;
+    qmc__msg_set(m, "cubature: stopped by the interrupt hook after ", s->evals,
+                 " evaluations");
+    return QMC_ECANCELED;
 }
 
 int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
@@ -362,6 +390,10 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
     s.fill = 0;
     s.evals = 0;
     s.nonfinite = 0;
+    qmc__poll_init(&s.poll, &opts->interrupt);
+    s.stopped = qmc__poll_now(&s.poll);
+    if (s.stopped)
+        return cancelled(&s, &m, res);
 
     double *root = region(&s, 0);
     for (uint32_t j = 0; j < d; j++) {
@@ -369,6 +401,8 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
         root[2 + d + j] = 0.5;
     }
     apply_rule(&s, 0);
+    if (s.stopped)
+        return cancelled(&s, &m, res);
     s.heap[0] = 0;
     s.count = 1;
     double est = root[0], err = root[1];
@@ -400,6 +434,8 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
         b[2 + ax] += half;
         apply_rule(&s, top);
         apply_rule(&s, fresh);
+        if (s.stopped)
+            return cancelled(&s, &m, res);
         est += a[0] + b[0] - old_est;
         err += a[1] + b[1] - old_err;
         heap_down(&s, 0);

@@ -25,11 +25,17 @@
  * Weights on [0,1]: w = 1 / ((1 - x^2) P_n'(x)^2) with 1 - x^2 = u (2 - u)
  * and P_n'(x) = n (x P_n - P_{n-1}) / (x^2 - 1) evaluated at the final
  * root.  Nothing here allocates or keeps state.
+ *
+ * At the largest n the O(n^2) work takes tens of seconds, so a tensor
+ * rule's caller may pass an interrupt poll: each evaluation of the
+ * recurrence counts n units of work, and a poll that fires stops the
+ * computation between Newton steps (the arithmetic is the same either way).
  */
 #include <float.h>
 #include <math.h>
 
 #include "qmc/quad.h"
+#include "quad_impl.h"
 
 #define GL_PI 3.14159265358979323846
 #define GL_MAX_NEWTON 100
@@ -65,8 +71,9 @@ static void legendre_at(uint32_t n, double u, double *p, double *dp)
 }
 
 /* The k-th root (k = 1 largest x) as u = 1 - x, by Newton from Tricomi's
- * guess; *w gets its weight on [0,1]. */
-static double root_u(uint32_t n, uint32_t k, double *w)
+ * guess; *w gets its weight on [0,1].  Sets *stop (and returns early) when
+ * the poll (NULL: none) fires. */
+static double root_u(uint32_t n, uint32_t k, double *w, qmc__poll *poll, int *stop)
 {
     double nn = (double)n;
     double theta = GL_PI * (4.0 * (double)k - 1.0) / (4.0 * nn + 2.0);
@@ -77,6 +84,10 @@ static double root_u(uint32_t n, uint32_t k, double *w)
     double p, dp;
     for (int it = 0; it < GL_MAX_NEWTON; it++) {
         legendre_at(n, u, &p, &dp);
+        if (poll && qmc__poll_work(poll, n)) {
+            *stop = 1;
+            return u;
+        }
         /* dP/du = -P'(x), so Newton's step in u is +p/dp. */
         double du = p / dp;
         u += du;
@@ -90,6 +101,11 @@ static double root_u(uint32_t n, uint32_t k, double *w)
 
 int qmc_gauss_legendre(uint32_t n, double *x, double *w)
 {
+    return qmc__gauss_legendre(n, x, w, NULL);
+}
+
+int qmc__gauss_legendre(uint32_t n, double *x, double *w, qmc__poll *poll)
+{
     if (!x || !w)
         return QMC_EINVAL;
     if (n == 0 || n > QMC_GAUSS_LEGENDRE_MAX_N)
@@ -97,7 +113,10 @@ int qmc_gauss_legendre(uint32_t n, double *x, double *w)
     uint32_t half = n / 2;
     for (uint32_t k = 1; k <= half; k++) {
         double wk;
-        double u = root_u(n, k, &wk);
+        int stop = 0;
+        double u = root_u(n, k, &wk, poll, &stop);
+        if (stop)
+            return QMC_ECANCELED;
         x[k - 1] = 0.5 * u;
         x[n - k] = 1.0 - 0.5 * u;
         w[k - 1] = wk;

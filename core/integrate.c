@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "interrupt.h"
 #include "msg.h"
 #include "qmc/integrate.h"
 #include "qmc/quad.h"
@@ -83,6 +84,11 @@ static int run_sampling(const qmc_integrate_spec *spec, qmc_sampling_spec s,
                         void *ctx, qmc_integrate_report *rep, qmc__msg *why)
 {
     int err;
+    qmc__guard guard = {runner, ctx, spec->interrupt};
+    if (spec->interrupt.fn) {
+        runner = qmc__guard_run;
+        ctx = &guard;
+    }
     if (spec->tol_abs > 0 || spec->tol_rel > 0) {
         uint64_t n_final = 0;
         err = qmc_sampling_adaptive(&s, f, g, spec->tol_abs, spec->tol_rel, spec->max_evals,
@@ -145,8 +151,8 @@ static int run_tensor(const qmc_integrate_spec *spec, qmc_rule1d rule, const qmc
         qmc__msg_str(why, "out of memory for the tensor rule's workspace");
         return QMC_ENOMEM;
     }
-    int err = qmc_quad_tensor(f, rule, n, spec->max_evals, ws, bytes, &rep->res, why->buf,
-                              why->cap);
+    int err = qmc_quad_tensor(f, rule, n, spec->max_evals, &spec->interrupt, ws, bytes,
+                              &rep->res, why->buf, why->cap);
     free(ws);
     if (err)
         return err;
@@ -175,6 +181,7 @@ static int run_gk(const qmc_integrate_spec *spec, const qmc_integrand *f,
         g.tol_rel = spec->tol_rel;
     }
     g.max_evals = spec->max_evals;
+    g.interrupt = spec->interrupt;
     size_t bytes = qmc_quad_gk_workspace_bytes(g.max_subdiv);
     void *ws = malloc(bytes);
     if (!ws) {
@@ -198,7 +205,7 @@ static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f,
                         qmc_integrate_report *rep, qmc__msg *why)
 {
     qmc_cubature_opts c = {.tol_abs = spec->tol_abs, .tol_rel = spec->tol_rel,
-                           .max_evals = spec->max_evals};
+                           .max_evals = spec->max_evals, .interrupt = spec->interrupt};
     if (c.tol_abs == 0 && c.tol_rel == 0)
         c.tol_rel = 1e-8;
     /* Never more memory than the budget can fill with regions. */

@@ -19,6 +19,11 @@
  * raises the error after ten intervals (iroff2 >= 20), or an interval too
  * small to halve in doubles, stops the run with QMC_FLAG_ROUNDOFF.
  *
+ * The caller's interrupt hook is polled before the first interval and
+ * then after bisections, counting evaluations (see interrupt.h), so about
+ * every hundred bisections; when it fires the run stops with
+ * QMC_ECANCELED and no estimate.
+ *
  * This file does not evaluate endpoints, print, or allocate.
  */
 #include <float.h>
@@ -27,6 +32,7 @@
 #include <string.h>
 
 #include "err_heap.h"
+#include "interrupt.h"
 #include "qmc/quad.h"
 
 #define GK_MAX_HALF 10                 /* Kronrod nodes on one side, K21 */
@@ -116,6 +122,8 @@ void qmc_quad_gk_opts_init(qmc_quad_gk_opts *opts)
     opts->max_subdiv = 200;
     opts->kronrod_points = 21;
     opts->max_evals = UINT64_MAX;
+    opts->interrupt.fn = NULL;
+    opts->interrupt.ctx = NULL;
 }
 
 size_t qmc_quad_gk_workspace_bytes(uint32_t max_subdiv)
@@ -286,6 +294,16 @@ static double tolerance(const qmc_quad_gk_opts *o, double area)
     return fmax(o->tol_abs, o->tol_rel * fabs(area));
 }
 
+/* The interrupt hook fired: no estimate, only the evaluations spent. */
+static int cancelled(const gk_state *s, qmc_result *res)
+{
+    qmc_result_init(res);
+    res->error_kind = QMC_ERROR_ESTIMATE;
+    res->dims = 1;
+    res->evals = s->evals;
+    return QMC_ECANCELED;
+}
+
 int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
                 void *workspace, size_t workspace_bytes, qmc_result *res)
 {
@@ -318,6 +336,10 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
     uint32_t k = 2 * s.rule->half + 1;
     if (opts->max_evals < k)
         return QMC_EBUDGET;
+    qmc__poll poll;
+    qmc__poll_init(&poll, &opts->interrupt);
+    if (qmc__poll_now(&poll))
+        return cancelled(&s, res);
 
     /* The whole interval first (DQAGE's opening tests). */
     uint32_t flags = 0;
@@ -328,6 +350,8 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
     s.iv[0].suspect = SUSPECT_NONE;
     s.iv[0].depth = 0;
     int bad = eval_intervals(&s, s.iv, 1, &resabs);
+    if (qmc__poll_work(&poll, k))
+        return cancelled(&s, res);
     s.heap[0] = 0;
     s.count = 1;
     double area = s.iv[0].r, errsum = s.iv[0].e;
@@ -369,6 +393,8 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
         halves[1].a = mid;
         halves[1].b = parent.b;
         bad = eval_intervals(&s, halves, 2, NULL);
+        if (qmc__poll_work(&poll, 2 * (uint64_t)k))
+            return cancelled(&s, res);
         double area12 = halves[0].r + halves[1].r;
         double erro12 = halves[0].e + halves[1].e;
         if (halves[0].resasc != halves[0].e && halves[1].resasc != halves[1].e) {

@@ -9,6 +9,7 @@
 
 #include "msg.h"
 #include "qmc/quad.h"
+#include "quad_impl.h"
 
 static const struct {
     const char *key;
@@ -90,6 +91,11 @@ static void newton_cotes(uint32_t n, int simpson, double *x, double *w)
 
 int qmc_rule1d_nodes(qmc_rule1d rule, uint32_t n, double *x, double *w)
 {
+    return qmc__rule1d_nodes(rule, n, x, w, NULL);
+}
+
+int qmc__rule1d_nodes(qmc_rule1d rule, uint32_t n, double *x, double *w, qmc__poll *poll)
+{
     if (!x || !w)
         return QMC_EINVAL;
     int rc = qmc_rule1d_check(rule, n, NULL, 0);
@@ -109,7 +115,7 @@ int qmc_rule1d_nodes(qmc_rule1d rule, uint32_t n, double *x, double *w)
         newton_cotes(n, 1, x, w);
         return 0;
     case QMC_RULE1D_GAUSS_LEGENDRE:
-        return qmc_gauss_legendre(n, x, w);
+        return qmc__gauss_legendre(n, x, w, poll);
     default:
         return QMC_EKIND;
     }

@@ -13,12 +13,18 @@
  * weighted sum is compensated (Neumaier), so that millions of small terms
  * do not lose digits.  Nothing here allocates: nodes, weights, the chunk
  * and the odometer sit in the caller's workspace.
+ *
+ * The caller's interrupt hook is polled before anything is computed, while
+ * Gauss-Legendre nodes are (their O(n^2) work can pass any evaluation
+ * count here), and after every chunk, counting evaluations: a cancel
+ * takes effect within about QMC_INTERRUPT_EVALS evaluations.
  */
 #include <math.h>
 #include <stdint.h>
 
 #include "msg.h"
 #include "qmc/quad.h"
+#include "quad_impl.h"
 
 #define TENSOR_CHUNK 256u
 #define TENSOR_ONE_MINUS 0x1.fffffffffffffp-1
@@ -79,12 +85,13 @@ typedef struct tensor_scratch {
     uint32_t *idx;  /* the odometer, dims digits */
 } tensor_scratch;
 
-/* The product rule with m nodes x[], w[] per axis; total = m^dims points.
- * Adds the evaluations to *evals and the non-finite values to *nonfinite. */
-static double tensor_sum(const qmc_integrand *f, const double *x,
-                         const double *w, uint32_t m, uint64_t total,
-                         const tensor_scratch *t, uint64_t *evals,
-                         uint64_t *nonfinite)
+/* The product rule with m nodes x[], w[] per axis; total = m^dims points,
+ * into *out.  Adds the evaluations to *evals and the non-finite values to
+ * *nonfinite.  Returns QMC_ECANCELED when the poll fires, else 0. */
+static int tensor_sum(const qmc_integrand *f, const double *x,
+                      const double *w, uint32_t m, uint64_t total,
+                      const tensor_scratch *t, qmc__poll *poll, double *out,
+                      uint64_t *evals, uint64_t *nonfinite)
 {
     uint32_t d = f->dims;
     double sum = 0.0, comp = 0.0;
@@ -119,8 +126,11 @@ static double tensor_sum(const qmc_integrand *f, const double *x,
         }
         *evals += c;
         left -= c;
+        if (qmc__poll_work(poll, c))
+            return QMC_ECANCELED;
     }
-    return sum + comp;
+    *out = sum + comp;
+    return 0;
 }
 
 /* "tensor gauss-legendre: 64^6 + 32^6 = 69793218560 evaluations exceed the
@@ -152,10 +162,23 @@ static void budget_reason(qmc__msg *m, qmc_rule1d rule, uint32_t n,
     qmc__msg_u64(m, max_evals);
 }
 
+/* The interrupt hook fired: no estimate, only the evaluations spent. */
+static int cancelled(qmc__msg *m, qmc_result *res, uint64_t evals)
+{
+    uint32_t dims = res->dims;
+    qmc_result_init(res);
+    res->error_kind = QMC_ERROR_ESTIMATE;
+    res->dims = dims;
+    res->evals = evals;
+    qmc__msg_set(m, "tensor: stopped by the interrupt hook after ", evals,
+                 " evaluations");
+    return QMC_ECANCELED;
+}
+
 int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
-                    uint64_t max_evals, void *workspace,
-                    size_t workspace_bytes, qmc_result *res, char *why,
-                    size_t why_bytes)
+                    uint64_t max_evals, const qmc_interrupt *interrupt,
+                    void *workspace, size_t workspace_bytes, qmc_result *res,
+                    char *why, size_t why_bytes)
 {
     qmc__msg m;
     qmc__msg_init(&m, why, why_bytes);
@@ -205,20 +228,29 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     t.pw = t.px + (size_t)TENSOR_CHUNK * d;
     t.pf = t.pw + TENSOR_CHUNK;
     t.idx = (uint32_t *)(t.pf + TENSOR_CHUNK);
-    rc = qmc_rule1d_nodes(rule, n, xf, wf);
+    qmc__poll poll;
+    qmc__poll_init(&poll, interrupt);
+    if (qmc__poll_now(&poll))
+        return cancelled(&m, res, 0);
+    rc = qmc__rule1d_nodes(rule, n, xf, wf, &poll);
     if (rc == 0 && nc)
-        rc = qmc_rule1d_nodes(rule, nc, xc, wc);
+        rc = qmc__rule1d_nodes(rule, nc, xc, wc, &poll);
+    if (rc == QMC_ECANCELED)
+        return cancelled(&m, res, 0);
     if (rc < 0) {
         qmc__msg_str(&m, "tensor: the rule's nodes failed");
         return rc;
     }
 
     uint64_t evals = 0, nonfinite = 0;
-    double est = tensor_sum(f, xf, wf, n, fine, &t, &evals, &nonfinite);
-    double err;
+    double est, err;
+    if (tensor_sum(f, xf, wf, n, fine, &t, &poll, &est, &evals, &nonfinite))
+        return cancelled(&m, res, evals);
     uint32_t flags = 0;
     if (nc) {
-        double low = tensor_sum(f, xc, wc, nc, coarse, &t, &evals, &nonfinite);
+        double low;
+        if (tensor_sum(f, xc, wc, nc, coarse, &t, &poll, &low, &evals, &nonfinite))
+            return cancelled(&m, res, evals);
         err = fabs(est - low);
     } else {
         err = fabs(est);

@@ -119,5 +119,9 @@ int qmc_sampling_adaptive(const qmc_sampling_spec *spec, const qmc_integrand *f,
         s.n = n2;
     }
     free(prev);
+    if (err) { /* no earlier round's estimate passed off as the answer */
+        qmc_result_init(res);
+        res->evals = evals;
+    }
     return err;
 }

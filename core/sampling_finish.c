@@ -14,11 +14,14 @@
  *  - qmc: no error bar at all (error_kind NONE), since one deterministic
  *    point set carries no information about its own error.
  * Diagnostics raise flags instead of hiding trouble (qmc/result.h).
+ * Running blocks lives here too: serially, or through the caller's runner,
+ * optionally behind an interrupt hook (qmc__guard_run, see interrupt.h).
  */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "interrupt.h"
 #include "neumaier.h"
 #include "sampling_impl.h"
 
@@ -164,17 +167,22 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
     return 0;
 }
 
-/* The serial runner: every block here, one workspace. */
+/* The serial runner: every block here, one workspace; the hook (NULL:
+ * none) is polled before each block. */
 static int run_serial(const qmc_sampling_job *job, uint64_t first, uint64_t count,
-                      qmc_sampling_sums *out)
+                      qmc_sampling_sums *out, const qmc_interrupt *hook)
 {
     size_t bytes = qmc_sampling_workspace_bytes(job);
     double *ws = malloc(bytes);
     if (!ws)
         return QMC_ENOMEM;
     int err = 0;
-    for (uint64_t i = 0; i < count && !err; i++)
-        err = qmc_sampling_run_block(job, first + i, ws, bytes, &out[i]);
+    for (uint64_t i = 0; i < count && !err; i++) {
+        if (hook && hook->fn && hook->fn(hook->ctx))
+            err = QMC_ECANCELED;
+        else
+            err = qmc_sampling_run_block(job, first + i, ws, bytes, &out[i]);
+    }
     free(ws);
     return err;
 }
@@ -183,7 +191,19 @@ int qmc__sampling_run_blocks(const qmc_sampling_job *job, qmc_block_runner runne
                              void *ctx, uint64_t first, uint64_t count,
                              qmc_sampling_sums *out)
 {
-    return runner ? runner(ctx, job, first, count, out) : run_serial(job, first, count, out);
+    return runner ? runner(ctx, job, first, count, out)
+                  : run_serial(job, first, count, out, NULL);
+}
+
+int qmc__guard_run(void *guard, const qmc_sampling_job *job, uint64_t first, uint64_t count,
+                   qmc_sampling_sums *out)
+{
+    const qmc__guard *g = guard;
+    if (!g->runner)
+        return run_serial(job, first, count, out, &g->hook);
+    if (g->hook.fn && g->hook.fn(g->hook.ctx))
+        return QMC_ECANCELED;
+    return g->runner(g->runner_ctx, job, first, count, out);
 }
 
 int qmc_sampling_run(const qmc_sampling_job *job, qmc_block_runner runner, void *runner_ctx,

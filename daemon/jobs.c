@@ -16,8 +16,10 @@
  * Cancellation is cooperative: before every block the runner checks the
  * job's cancel flag (set by JOB_CANCEL, the connection closing, shutdown)
  * and its time limit, and returns -ECANCELED.  Methods that run no blocks
- * (quadrature, cubature) cannot be interrupted; their cost is bounded by
- * max_evals and max_memory, and a cancelled one's result is discarded.
+ * (tensor rules and their Gauss-Legendre nodes, Gauss-Kronrod, cubature)
+ * poll the same check through the spec's interrupt hook about every
+ * QMC_INTERRUPT_EVALS evaluations and stop with QMC_ECANCELED; either way
+ * the answer follows from the cancel flag, never from a partial result.
  *
  * Finished jobs go on a done list and the worker writes the eventfd; the
  * loop then answers JOB_RESULT or ERROR, tagged with the INTEGRATE's
@@ -56,6 +58,7 @@ struct qmcd_job {
     atomic_int cancel;           /* CANCEL_* */
     atomic_uint_fast64_t evals;
     atomic_llong start_ms;       /* 0 until a worker starts it */
+    unsigned polls;              /* the job's worker: interrupt hook calls */
     /* Written by the worker before it posts the job, read by the loop
      * after (the pool mutex orders the two). */
     int err;
@@ -108,6 +111,28 @@ static int must_stop(qmcd_job *j)
         return 1;
     }
     return 0;
+}
+
+/* How often the interrupt hook reads the clock.  The hook runs every
+ * QMC_INTERRUPT_EVALS evaluations or so (tens of microseconds apart for the
+ * cheapest integrands, a few hundred for Gauss-Legendre nodes at the
+ * largest n), the flag is one atomic load, and the loop's tick (every
+ * QMCD_TICK_MS) turns a passed time limit into a cancel anyway; so a clock
+ * read every 16th call costs nothing measurable and still catches the
+ * limit within a few milliseconds of work. */
+enum { POLL_CLOCK_EVERY = 16 };
+
+/* The interrupt hook qmc_integrate polls (spec.interrupt), on the job's own
+ * worker thread only: the cancel flag on every call, the time limit on
+ * every POLL_CLOCK_EVERY-th. */
+static int job_interrupt(void *ctx)
+{
+    qmcd_job *j = ctx;
+    if (atomic_load(&j->cancel) != CANCEL_NONE)
+        return 1;
+    if (++j->polls % POLL_CLOCK_EVERY != 0)
+        return 0;
+    return must_stop(j);
 }
 
 static void work_blocks(batch *b, void *ws, size_t bytes)
@@ -188,8 +213,10 @@ static void run_job(qmcd_job *j)
     }
     j->seconds = seconds_since(atomic_load(&j->start_ms));
     int cancel = atomic_load(&j->cancel);
+    /* Finished past the limit between two checks (the hook reads the clock
+     * every POLL_CLOCK_EVERY calls): it still timed out. */
     if (cancel == CANCEL_NONE && (int64_t)(j->seconds * 1000) >= (int64_t)j->time_limit_ms)
-        cancel = CANCEL_TIMEOUT; /* an uninterruptible method ran past it */
+        cancel = CANCEL_TIMEOUT;
     if (cancel != CANCEL_NONE) {
         atomic_store(&j->cancel, cancel);
         atomic_store(&j->state, QMC_JOB_CANCELLED);
@@ -394,9 +421,11 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     j->last_progress_ms = qmcd_now_ms();
     j->time_limit_ms = srv->cfg.job_time_limit_ms;
     j->spec = g->spec.integrate;
+    j->spec.interrupt.fn = job_interrupt;
+    j->spec.interrupt.ctx = j;
     /* A client states its own budget and cubature memory; the daemon's
-     * limits cap both (quadrature cannot be interrupted, so the budget is
-     * what bounds its time). */
+     * limits cap both (the time limit and cancels stop every method; the
+     * budget bounds what a job may cost at all). */
     if (j->spec.max_evals > srv->cfg.max_job_evals)
         j->spec.max_evals = srv->cfg.max_job_evals;
     if (j->spec.max_memory > srv->cfg.max_job_memory)
@@ -471,8 +500,9 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         qmc_msg r;
         int none = CANCEL_NONE;
         if (!j->finished && atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_CLIENT)) {
-            /* The worker sees the flag before its next block; the INTEGRATE
-             * itself is answered ERROR ECANCELED when it stops. */
+            /* The worker sees the flag before its next block or at its
+             * method's next interrupt poll; the INTEGRATE itself is
+             * answered ERROR ECANCELED when it stops. */
             job_state_msg(j, m->request_id, &r);
             r.u.state.state = QMC_JOB_CANCELLED;
         } else {

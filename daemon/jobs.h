@@ -14,8 +14,9 @@
  * must already be blocked (workers inherit the mask). */
 int qmcd_pool_new(unsigned threads, qmcd_pool **out);
 int qmcd_pool_eventfd(const qmcd_pool *pool);
-/* Stops and joins the workers; with jobs still running (an uninterruptible
- * method at exit) it leaves them be and frees nothing they use. */
+/* Stops and joins the workers; with jobs still running at exit (one
+ * integrand call that outlasts the deadline) it leaves them be and frees
+ * nothing they use. */
 void qmcd_pool_free(qmcd_pool *pool, int jobs_running);
 
 /* Request handlers. */

@@ -116,11 +116,12 @@ static void drain_step(qmcd_server *srv, int64_t now)
     qmcd_conns_close_idle(srv);
     if (srv->n_jobs == 0 && srv->n_conns == 0)
         srv->quit = 1;
-    /* A job stuck in a method that cannot be interrupted (quadrature runs
-     * no block runner) must not hold the exit hostage forever. */
+    /* Every method sees a cancel within a few thousand evaluations, but a
+     * job stuck inside one integrand call must still not hold the exit
+     * hostage forever. */
     if (now >= srv->drain_deadline_ms + 2000) {
         if (srv->n_jobs)
-            qmcd_warn("exiting with %llu uninterruptible job(s) still running",
+            qmcd_warn("exiting with %llu job(s) that ignored their cancel still running",
                       (unsigned long long)srv->n_jobs);
         srv->quit = 1;
     }

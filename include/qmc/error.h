@@ -27,7 +27,8 @@ extern "C" {
     X(ETOOBIG,   -1011, "request exceeds a configured limit")               \
     X(ENOTSUP,   -1012, "operation not supported")                          \
     X(EDOMAIN,   -1013, "value outside the function's domain")              \
-    X(EBUDGET,   -1014, "evaluation budget exceeded")
+    X(EBUDGET,   -1014, "evaluation budget exceeded")                       \
+    X(ECANCELED, -1015, "stopped by the caller's interrupt hook")
 
 enum {
 #define QMC__ERR_ENUM(name, value, text) QMC_##name = (value),

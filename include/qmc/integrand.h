@@ -39,6 +39,33 @@ typedef struct qmc_integrand {
     const char *name;          /* static string, e.g. "genz-gaussian" */
 } qmc_integrand;
 
+/*
+ * Cooperative cancellation: an optional hook the caller hands to an
+ * integrator (qmc_integrate_spec, the quadrature and cubature options).
+ * The integrator calls fn(ctx) before it starts evaluating and then
+ * whenever QMC_INTERRUPT_EVALS evaluations have passed since the last
+ * call, at the next point where it can stop cleanly: after the current
+ * batch of at most a few hundred points (quadrature, cubature), before
+ * the next block of QMC_SAMPLING_BLOCK points (sampling methods run
+ * serially), or, while a tensor rule computes Gauss-Legendre nodes, after
+ * max(QMC_INTERRUPT_EVALS, n) steps of the Legendre recurrence.  When fn
+ * returns non-zero the integrator stops and returns QMC_ECANCELED, with no
+ * estimate in its result.  fn NULL (a zeroed struct) means never.  The
+ * hook only decides whether to go on: with one that never fires, the
+ * results are bit for bit those without it.  fn runs on the integrator's
+ * thread, must be cheap and thread-safe as its ctx requires, and must not
+ * call back into the integrator.  Core keeps no clock: a deadline is the
+ * hook's to check.
+ */
+typedef struct qmc_interrupt {
+    int (*fn)(void *ctx);
+    void *ctx;
+} qmc_interrupt;
+
+/* Evaluations between two calls of the hook (the sampling engine's block
+ * size, so every method answers a cancel after comparable work). */
+#define QMC_INTERRUPT_EVALS 4096u
+
 #ifdef __cplusplus
 }
 #endif

@@ -4,7 +4,8 @@
  * runs for an INTEGRATE request.
  *
  * Threads stay outside: sampling methods run their blocks through the
- * caller's qmc_block_runner (NULL: serially, here).
+ * caller's qmc_block_runner (NULL: serially, here).  Cancellation is
+ * cooperative, through the spec's interrupt hook (qmc/integrand.h).
  */
 #ifndef QMC_INTEGRATE_H
 #define QMC_INTEGRATE_H
@@ -55,10 +56,18 @@ typedef struct qmc_integrate_spec {
                                     elsewhere; auto always stops adaptively */
     uint64_t max_evals;          /* evaluation budget */
     uint64_t max_memory;         /* bytes for cubature regions */
+    /* Optional, in-process only (never sent over the wire): polled about
+     * every QMC_INTERRUPT_EVALS evaluations by every method; when it fires
+     * qmc_integrate returns QMC_ECANCELED.  Sampling methods poll it
+     * before every block when they run serially (runner NULL); with a
+     * runner, before each batch of blocks they hand it, so a runner that
+     * takes large batches checks its own cancellation between blocks (as
+     * the daemon's does). */
+    qmc_interrupt interrupt;
 } qmc_integrate_spec;
 
 /* Defaults: auto, n 4096 (sampling), 16 per axis, no tolerance, budget
- * 1e8 evaluations, 64 MiB of cubature regions. */
+ * 1e8 evaluations, 64 MiB of cubature regions, no interrupt hook. */
 void qmc_integrate_spec_init(qmc_integrate_spec *spec);
 
 typedef struct qmc_integrate_report {
@@ -75,7 +84,9 @@ typedef struct qmc_integrate_report {
  * says.  Fills *rep on every return path.  Errors (with a one-line reason
  * in why): QMC_EINVAL, QMC_EDIMS, QMC_ECOUNT, QMC_ESCRAMBLE, QMC_EBUDGET
  * (a request whose cost exceeds max_evals is refused before evaluating),
- * QMC_ENOMEM.
+ * QMC_ENOMEM, QMC_ECANCELED (spec->interrupt fired: rep->res holds no
+ * estimate).  A runner's own error (e.g. the daemon's -ECANCELED) is
+ * passed on as it is.
  */
 QMC_MUST_CHECK int qmc_integrate(const qmc_integrate_spec *spec,
                                  const qmc_integrand *f,

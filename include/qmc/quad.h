@@ -21,7 +21,13 @@
  * estimate, its error estimate (error_kind QMC_ERROR_ESTIMATE) and flags
  * saying whether the tolerance was met (QUADPACK's habit: best estimate plus
  * status); a negative QMC_E* code means nothing was evaluated, or the
- * arguments were wrong.  Integrands are called in batches and only with
+ * arguments were wrong, or the caller's interrupt hook (qmc_interrupt, see
+ * qmc/integrand.h) stopped the run: QMC_ECANCELED, res then holds no
+ * estimate, only the evaluations spent (res->evals).  The adaptive methods
+ * and the tensor rules poll the hook every QMC_INTERRUPT_EVALS evaluations
+ * or so, Gauss-Legendre nodes as they are computed for a tensor rule; the
+ * rest (other nodes, workspace checks) is O(n) work at most.  Integrands
+ * are called in batches and only with
  * points in [0,1)^dims: a rule node at exactly 1 (trapezoid, Simpson) is
  * passed as the largest double below 1.  Non-finite integrand values are
  * counted in res->nonfinite and raise QMC_FLAG_NONFINITE.
@@ -66,7 +72,8 @@ typedef enum qmc_rule1d {
 } qmc_rule1d;
 
 /* Largest n qmc_gauss_legendre accepts: the nodes cost O(n^2) flops (about
- * a second at this n). */
+ * half a minute at this n, 2 s at n = 16384), which is why a tensor rule
+ * polls its interrupt hook while it computes them. */
 #define QMC_GAUSS_LEGENDRE_MAX_N 65536u
 
 /* Short key of a rule ("gauss-legendre"); "" for values outside the enum. */
@@ -128,10 +135,11 @@ typedef struct qmc_quad_gk_opts {
     uint32_t max_subdiv;     /* intervals the workspace holds, >= 1 */
     uint32_t kronrod_points; /* 15 (G7-K15) or 21 (G10-K21) */
     uint64_t max_evals;      /* hard cap; UINT64_MAX for none */
+    qmc_interrupt interrupt; /* polled between bisections; fn NULL: never */
 } qmc_quad_gk_opts;
 
 /* Defaults: tol_abs 0, tol_rel 1e-10, max_subdiv 200, kronrod_points 21,
- * max_evals UINT64_MAX. */
+ * max_evals UINT64_MAX, no interrupt hook. */
 void qmc_quad_gk_opts_init(qmc_quad_gk_opts *opts);
 
 /* Workspace bytes for max_subdiv intervals (0 when that overflows). */
@@ -142,7 +150,7 @@ size_t qmc_quad_gk_workspace_bytes(uint32_t max_subdiv);
  * (check res->flags), or: QMC_EINVAL (NULL argument, bad tolerances,
  * kronrod_points not 15 or 21, max_subdiv 0, workspace too small or
  * misaligned), QMC_EDIMS (f->dims != 1), QMC_EBUDGET (max_evals below one
- * Kronrod rule; nothing evaluated).
+ * Kronrod rule; nothing evaluated), QMC_ECANCELED (opts->interrupt fired).
  */
 QMC_MUST_CHECK int qmc_quad_gk(const qmc_integrand *f,
                                const qmc_quad_gk_opts *opts, void *workspace,
@@ -169,13 +177,17 @@ size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims);
  * Integrates f over [0,1]^f->dims.  Refuses, BEFORE evaluating anything,
  * with QMC_EBUDGET when n^dims + n_c^dims exceeds max_evals, and a reason
  * naming the cost ("tensor gauss-legendre: 64^6 + 32^6 = 69793218560
- * evaluations exceed the budget of 10000000").  Other errors: QMC_EINVAL
- * (NULL argument, workspace too small or misaligned), QMC_EDIMS (dims 0),
- * QMC_EKIND, QMC_ECOUNT (n invalid for the rule); each with a reason in why
- * (may be NULL).
+ * evaluations exceed the budget of 10000000").  interrupt (NULL, or fn
+ * NULL: never) is polled while Gauss-Legendre nodes are computed (O(n^2)
+ * work: tens of seconds at the largest n) and between chunks of points.
+ * Other errors: QMC_EINVAL (NULL argument, workspace too small or
+ * misaligned), QMC_EDIMS (dims 0), QMC_EKIND, QMC_ECOUNT (n invalid for the
+ * rule), QMC_ECANCELED (the hook fired); each with a reason in why (may be
+ * NULL).
  */
 QMC_MUST_CHECK int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule,
                                    uint32_t n, uint64_t max_evals,
+                                   const qmc_interrupt *interrupt,
                                    void *workspace, size_t workspace_bytes,
                                    qmc_result *res, char *why,
                                    size_t why_bytes);
@@ -200,6 +212,8 @@ typedef struct qmc_cubature_opts {
     double tol_abs;     /* >= 0 */
     double tol_rel;     /* >= 0; at least one of the two > 0 */
     uint64_t max_evals; /* hard cap on evaluations */
+    qmc_interrupt interrupt; /* polled between chunks of points, even
+                                inside one region; fn NULL: never */
 } qmc_cubature_opts;
 
 /* Evaluations of the Genz-Malik rule on one region in dims dimensions,
@@ -217,7 +231,8 @@ size_t qmc_cubature_workspace_bytes(uint32_t dims, uint32_t max_regions);
  * evaluations: "cubature: one genz-malik region in 30 dimensions needs
  * 1073743685 evaluations, over the budget of 1000000"), QMC_EINVAL (NULL
  * argument, bad tolerances, workspace too small for one region or
- * misaligned), QMC_EDIMS (dims 0).
+ * misaligned), QMC_EDIMS (dims 0).  QMC_ECANCELED ("cubature: stopped by
+ * the interrupt hook after N evaluations") when opts->interrupt fired.
  */
 QMC_MUST_CHECK int qmc_cubature(const qmc_integrand *f,
                                 const qmc_cubature_opts *opts,

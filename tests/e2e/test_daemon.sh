@@ -238,6 +238,60 @@ pass=$((pass + n_ok))
 if grep '^FAIL' "$tmp/sigterm.out"; then fail=$((fail + 1)); fi
 [ "$n_ok" -gt 0 ] || bad "sigterm peer: $(cat "$tmp/sigterm.out")"
 
+# ---- 17. Cancelling the methods that run no sampling blocks -----------------
+# Cubature, tensor rules and Gauss-Legendre's nodes stop through
+# qmc_integrate's interrupt hook (tests/e2e/cancelpeer.py).  Each stopped
+# job is compared with a twin of at most half its work started with it and
+# left running, never with a wall-clock threshold: after a JOB_CANCEL or
+# the job time limit it must be answered while the twin still runs; at the
+# SIGTERM drain deadline it must be answered before the daemon closes.
+CPEER="$(cd "$(dirname "$0")" && pwd)/cancelpeer.py"
+cpeer() {
+    saved_peer=$PEER
+    PEER=$CPEER
+    peer "$@"
+    PEER=$saved_peer
+}
+cat > "$tmp/cancel.conf" <<EOF
+threads = 2
+log-level = info
+shutdown-timeout-ms = 300
+EOF
+if start cx --config "$tmp/cancel.conf" --listen "unix:$tmp/cx.sock"; then
+    CX=$pid
+    if start cy --threads 1 --job-time-limit-ms 300 --listen "unix:$tmp/cy.sock"; then
+        CY=$pid
+        for m in cubature gauss-legendre; do
+            cpeer race "unix:$tmp/cx.sock" "$m"
+            cpeer timelimit "unix:$tmp/cy.sock" "unix:$tmp/cx.sock" "$m"
+        done
+        kill -TERM "$CY"
+        if wait_exit "$CY" 10 && wait "$CY"; then ok; else bad "time-limit daemon: SIGTERM"; fi
+    fi
+    # SIGTERM with a Gauss-Legendre job in its nodes: answered at the drain
+    # deadline, exit 0, and no job left to force the exit.
+    "$PY" "$CPEER" sigterm "unix:$tmp/cx.sock" gauss-legendre "$tmp/cx.marker" \
+        > "$tmp/cx-sigterm.out" 2>&1 &
+    CPEERPID=$!
+    if wait_file "$tmp/cx.marker"; then
+        kill -TERM "$CX"
+        if wait_exit "$CX" 10 && wait "$CX"; then ok
+        else bad "SIGTERM with a gauss-legendre job: no clean exit"; fi
+        if grep -q "ignored their cancel" "$tmp/cx.log"; then
+            bad "SIGTERM: a job ignored its cancel: $(grep 'ignored' "$tmp/cx.log")"
+        else ok; fi
+    else
+        bad "cancel sigterm peer never got its job running: $(cat "$tmp/cx-sigterm.out")"
+    fi
+    wait "$CPEERPID"
+    n_ok=$(grep -c '^ok ' "$tmp/cx-sigterm.out")
+    pass=$((pass + n_ok))
+    n_bad=$(grep -c '^FAIL' "$tmp/cx-sigterm.out")
+    fail=$((fail + n_bad))
+    grep '^FAIL' "$tmp/cx-sigterm.out"
+    [ "$n_ok" -gt 0 ] || bad "cancel sigterm peer: $(cat "$tmp/cx-sigterm.out")"
+fi
+
 # Sanitized builds: any report in a daemon's log is a failure.
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"

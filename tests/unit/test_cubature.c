@@ -8,7 +8,12 @@
  * regions stops with QMC_FLAG_MEMORY_BOUND and a valid estimate; d = 22 and
  * d = 30 run in a few-MB workspace without crashing (one region under the
  * budget flag, or a refusal before any evaluation); evaluations are counted
- * exactly: (2 regions - 1) times the rule's points.
+ * exactly: (2 regions - 1) times the rule's points.  An interrupt hook that
+ * never fires changes no bit; one that fires on its K-th call stops the
+ * run there (QMC_ECANCELED, no estimate, no evaluation after the call),
+ * between region splits at low d and inside one region's 2^d corners at
+ * high d, with at most QMC_INTERRUPT_EVALS evaluations plus one chunk
+ * between calls.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -20,6 +25,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "hook.h"
 #include "qmc/quad.h"
 
 #define MAX_D 32
@@ -76,8 +82,9 @@ typedef struct cub_run {
     char why[200];
 } cub_run;
 
-static cub_run run(cub_ctx *c, uint32_t dims, double tol_abs, double tol_rel,
-                   uint64_t max_evals, size_t bytes)
+/* With a test hook firing on call fire_at (h NULL: no hook). */
+static cub_run run_hook(cub_ctx *c, uint32_t dims, double tol_abs, double tol_rel,
+                        uint64_t max_evals, size_t bytes, test_hook *h, uint64_t fire_at)
 {
     cub_run r;
     r.seen.calls = 0;
@@ -89,7 +96,9 @@ static cub_run run(cub_ctx *c, uint32_t dims, double tol_abs, double tol_rel,
     f.eval = cub_eval;
     f.ctx = c;
     f.dims = dims;
-    qmc_cubature_opts o = {tol_abs, tol_rel, max_evals};
+    qmc_cubature_opts o = {.tol_abs = tol_abs, .tol_rel = tol_rel, .max_evals = max_evals};
+    if (h)
+        o.interrupt = test_hook_init(h, fire_at, &r.seen.calls);
     void *ws = malloc(bytes ? bytes : 1);
     assert_non_null(ws);
     r.why[0] = '\0';
@@ -100,6 +109,12 @@ static cub_run run(cub_ctx *c, uint32_t dims, double tol_abs, double tol_rel,
         fail_msg("d=%u: evals %llu but the integrand saw %llu", dims,
                  (unsigned long long)r.res.evals, (unsigned long long)r.seen.calls);
     return r;
+}
+
+static cub_run run(cub_ctx *c, uint32_t dims, double tol_abs, double tol_rel,
+                   uint64_t max_evals, size_t bytes)
+{
+    return run_hook(c, dims, tol_abs, tol_rel, max_evals, bytes, NULL, 0);
 }
 
 static void test_region_evals(void **state)
@@ -279,10 +294,64 @@ static void test_errors_and_nonfinite(void **state)
     assert_int_equal(r.rc, QMC_EINVAL);
     qmc_result res;
     res.evals = 7;
-    qmc_cubature_opts o = {0.0, 1e-6, 1000};
+    qmc_cubature_opts o = {.tol_abs = 0.0, .tol_rel = 1e-6, .max_evals = 1000};
     assert_int_equal(qmc_cubature(NULL, &o, &res, sizeof res, &res, NULL, 0),
                      QMC_EINVAL);
     assert_int_equal(res.evals, 0);
+}
+
+/* A run stopped by the hook on call k: no estimate, nothing evaluated
+ * after the call. */
+static void check_stopped(const cub_run *r, const test_hook *h, uint64_t k)
+{
+    if (r->rc != QMC_ECANCELED)
+        fail_msg("hook firing on call %llu: rc %d", (unsigned long long)k, r->rc);
+    assert_int_equal(h->calls, k);
+    assert_true(r->res.estimate == 0.0 && r->res.error == 0.0 && r->res.n == 0);
+    assert_int_equal(r->seen.calls, h->evals_at_fire);
+    assert_non_null(strstr(r->why, "stopped by the interrupt hook"));
+}
+
+static void test_interrupt(void **state)
+{
+    (void)state;
+    const uint64_t chunk = 256; /* points evaluated per integrand call */
+    cub_ctx c = {C_GAUSS, 6.0, {0}, NULL};
+    size_t bytes = qmc_cubature_workspace_bytes(3, 20000);
+    /* d = 3 to 1e-12: stops on the budget after 6000 region splits. */
+    cub_run plain = run(&c, 3, 0.0, 1e-12, 400000, bytes);
+    assert_int_equal(plain.rc, 0);
+    assert_true(plain.res.flags & QMC_FLAG_BUDGET);
+    test_hook h;
+    cub_run never = run_hook(&c, 3, 0.0, 1e-12, 400000, bytes, &h, 0);
+    assert_int_equal(never.rc, 0);
+    assert_true(test_same_result(&plain.res, &never.res));
+    const uint64_t calls = h.calls;
+    assert_true(calls >= 1 + plain.res.evals / (QMC_INTERRUPT_EVALS + chunk));
+    assert_true(calls <= 2 + plain.res.evals / QMC_INTERRUPT_EVALS);
+    assert_true(h.max_gap <= QMC_INTERRUPT_EVALS + chunk);
+    const uint64_t ks[] = {1, 2, 3, calls / 2, calls};
+    for (int i = 0; i < 5; i++) {
+        cub_run r = run_hook(&c, 3, 0.0, 1e-12, 400000, bytes, &h, ks[i]);
+        check_stopped(&r, &h, ks[i]);
+        assert_true(r.res.evals <= (ks[i] - 1) * (QMC_INTERRUPT_EVALS + chunk));
+    }
+    cub_run last = run_hook(&c, 3, 0.0, 1e-12, 400000, bytes, &h, calls + 1);
+    assert_int_equal(last.rc, 0);
+    assert_true(test_same_result(&plain.res, &last.res));
+
+    /* d = 16: one region is 66081 points; the hook stops it midway. */
+    c.a = 1.0;
+    bytes = qmc_cubature_workspace_bytes(16, 4);
+    plain = run(&c, 16, 0.0, 1e-9, 70000, bytes);
+    assert_int_equal(plain.rc, 0);
+    assert_int_equal(plain.res.evals, qmc_cubature_region_evals(16));
+    never = run_hook(&c, 16, 0.0, 1e-9, 70000, bytes, &h, 0);
+    assert_true(test_same_result(&plain.res, &never.res));
+    assert_true(h.calls >= 16);
+    cub_run r = run_hook(&c, 16, 0.0, 1e-9, 70000, bytes, &h, 3);
+    check_stopped(&r, &h, 3);
+    assert_true(r.res.evals <= 2 * (QMC_INTERRUPT_EVALS + chunk));
 }
 
 int main(void)
@@ -295,6 +364,7 @@ int main(void)
         cmocka_unit_test(test_budget),
         cmocka_unit_test(test_high_dimensions),
         cmocka_unit_test(test_errors_and_nonfinite),
+        cmocka_unit_test(test_interrupt),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -12,6 +12,11 @@
  * evaluated at the endpoint) and steps with error bars that contain the
  * true error, roundoff and budget flags.  Tensor: accuracy, honest error,
  * exact evaluation counts, and a budget refusal before any evaluation.
+ * Interrupt hook: a hook that never fires changes no bit; one that fires
+ * on its K-th call stops Gauss-Kronrod and the tensor rules right there
+ * (QMC_ECANCELED, no estimate, no evaluation after the call), with at most
+ * QMC_INTERRUPT_EVALS evaluations plus one batch between calls, and stops
+ * Gauss-Legendre's O(n^2) node computation before any evaluation.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -24,6 +29,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "hook.h"
 #include "qmc/quad.h"
 #include "../vectors/quad_vectors.h"
 
@@ -323,8 +329,10 @@ typedef struct gk_run {
     probe seen;
 } gk_run;
 
-static gk_run run_gk(int kind, double p, double tol_abs, double tol_rel,
-                     uint32_t max_subdiv, uint32_t kronrod, uint64_t max_evals)
+/* With a test hook firing on call fire_at (h NULL: no hook). */
+static gk_run run_gk_hook(int kind, double p, double tol_abs, double tol_rel,
+                          uint32_t max_subdiv, uint32_t kronrod, uint64_t max_evals,
+                          test_hook *h, uint64_t fire_at)
 {
     gk_run r;
     probe_init(&r.seen);
@@ -337,6 +345,8 @@ static gk_run run_gk(int kind, double p, double tol_abs, double tol_rel,
     o.max_subdiv = max_subdiv;
     o.kronrod_points = kronrod;
     o.max_evals = max_evals;
+    if (h)
+        o.interrupt = test_hook_init(h, fire_at, &r.seen.calls);
     size_t bytes = qmc_quad_gk_workspace_bytes(max_subdiv);
     void *ws = malloc(bytes);
     assert_non_null(ws);
@@ -346,6 +356,12 @@ static gk_run run_gk(int kind, double p, double tol_abs, double tol_rel,
         fail_msg("evals %llu but the integrand saw %llu",
                  (unsigned long long)r.res.evals, (unsigned long long)r.seen.calls);
     return r;
+}
+
+static gk_run run_gk(int kind, double p, double tol_abs, double tol_rel,
+                     uint32_t max_subdiv, uint32_t kronrod, uint64_t max_evals)
+{
+    return run_gk_hook(kind, p, tol_abs, tol_rel, max_subdiv, kronrod, max_evals, NULL, 0);
 }
 
 static void test_gk_kronrod_degree(void **state)
@@ -521,9 +537,11 @@ static void test_gk_budget_and_errors(void **state)
 
 /* ---- tensor products --------------------------------------------------------- */
 
-static qmc_result run_tensor(int kind, double p, uint32_t dims, qmc_rule1d rule,
-                             uint32_t n, uint64_t max_evals, int *rc, probe *seen,
-                             char *why, size_t why_bytes)
+/* With a test hook firing on call fire_at (h NULL: no hook). */
+static qmc_result run_tensor_hook(int kind, double p, uint32_t dims, qmc_rule1d rule,
+                                  uint32_t n, uint64_t max_evals, int *rc, probe *seen,
+                                  char *why, size_t why_bytes, test_hook *h,
+                                  uint64_t fire_at)
 {
     probe_init(seen);
     fn_ctx c = {kind, p, seen};
@@ -532,9 +550,21 @@ static qmc_result run_tensor(int kind, double p, uint32_t dims, qmc_rule1d rule,
     void *ws = malloc(bytes);
     assert_non_null(ws);
     qmc_result res;
-    *rc = qmc_quad_tensor(&f, rule, n, max_evals, ws, bytes, &res, why, why_bytes);
+    qmc_interrupt hook;
+    if (h)
+        hook = test_hook_init(h, fire_at, &seen->calls);
+    *rc = qmc_quad_tensor(&f, rule, n, max_evals, h ? &hook : NULL, ws, bytes, &res, why,
+                          why_bytes);
     free(ws);
     return res;
+}
+
+static qmc_result run_tensor(int kind, double p, uint32_t dims, qmc_rule1d rule,
+                             uint32_t n, uint64_t max_evals, int *rc, probe *seen,
+                             char *why, size_t why_bytes)
+{
+    return run_tensor_hook(kind, p, dims, rule, n, max_evals, rc, seen, why, why_bytes, NULL,
+                           0);
 }
 
 static void test_tensor_accuracy(void **state)
@@ -625,6 +655,95 @@ static void test_tensor_budget(void **state)
     assert_int_equal(rc, QMC_EDIMS);
 }
 
+/* ---- the interrupt hook -------------------------------------------------------- */
+
+/* A run stopped by the hook: no estimate, nothing evaluated after the
+ * firing call, and the evaluations it did reported. */
+static void check_stopped(int rc, const qmc_result *res, const probe *seen,
+                          const test_hook *h, uint64_t k)
+{
+    if (rc != QMC_ECANCELED)
+        fail_msg("hook firing on call %llu: rc %d", (unsigned long long)k, rc);
+    assert_int_equal(h->calls, k); /* not called again once it fired */
+    assert_true(res->estimate == 0.0 && res->error == 0.0 && res->n == 0);
+    assert_int_equal(res->evals, seen->calls);
+    assert_int_equal(seen->calls, h->evals_at_fire);
+}
+
+static void test_gk_interrupt(void **state)
+{
+    (void)state;
+    /* cos(5000 x) to 1e-13: 846 bisections, nine hook calls. */
+    const uint64_t batch = 2 * 21; /* one bisection */
+    gk_run plain = run_gk(F_COS, 5000.0, 1e-13, 0.0, 5000, 21, UINT64_MAX);
+    assert_int_equal(plain.rc, 0);
+    test_hook h;
+    gk_run never = run_gk_hook(F_COS, 5000.0, 1e-13, 0.0, 5000, 21, UINT64_MAX, &h, 0);
+    assert_int_equal(never.rc, 0);
+    assert_true(test_same_result(&plain.res, &never.res));
+    const uint64_t calls = h.calls;
+    assert_true(calls >= 4);
+    assert_true(calls <= 2 + plain.res.evals / QMC_INTERRUPT_EVALS);
+    assert_true(h.max_gap <= QMC_INTERRUPT_EVALS + batch);
+    for (uint64_t k = 1; k <= calls; k++) {
+        gk_run g = run_gk_hook(F_COS, 5000.0, 1e-13, 0.0, 5000, 21, UINT64_MAX, &h, k);
+        check_stopped(g.rc, &g.res, &g.seen, &h, k);
+        assert_true(g.res.evals <= (k - 1) * (QMC_INTERRUPT_EVALS + batch));
+        assert_true(k > 1 || g.res.evals == 0); /* the first call comes first */
+    }
+    /* One call more than a full run makes: it never fires. */
+    gk_run last = run_gk_hook(F_COS, 5000.0, 1e-13, 0.0, 5000, 21, UINT64_MAX, &h, calls + 1);
+    assert_int_equal(last.rc, 0);
+    assert_true(test_same_result(&plain.res, &last.res));
+}
+
+static void test_tensor_interrupt(void **state)
+{
+    (void)state;
+    probe seen;
+    char why[160];
+    int rc;
+    test_hook h;
+    const uint64_t batch = 256; /* the tensor rule's chunk */
+    /* Every rule, 40^3 + 20^3 points: identical bits with a silent hook,
+     * stopped on call K for a few K. */
+    const struct { qmc_rule1d rule; uint32_t n; } cases[] = {
+        {QMC_RULE1D_MIDPOINT, 40}, {QMC_RULE1D_TRAPEZOID, 41},
+        {QMC_RULE1D_SIMPSON, 41}, {QMC_RULE1D_GAUSS_LEGENDRE, 40}};
+    for (int i = 0; i < 4; i++) {
+        qmc_result plain = run_tensor(F_COS, 2.0, 3, cases[i].rule, cases[i].n, 1000000,
+                                      &rc, &seen, why, sizeof why);
+        assert_int_equal(rc, 0);
+        qmc_result never = run_tensor_hook(F_COS, 2.0, 3, cases[i].rule, cases[i].n,
+                                           1000000, &rc, &seen, why, sizeof why, &h, 0);
+        assert_int_equal(rc, 0);
+        assert_true(test_same_result(&plain, &never));
+        assert_true(h.calls >= 1 + plain.evals / (QMC_INTERRUPT_EVALS + batch));
+        assert_true(h.max_gap <= QMC_INTERRUPT_EVALS + batch);
+        const uint64_t calls = h.calls;
+        const uint64_t ks[] = {1, 2, calls / 2, calls};
+        for (int j = 0; j < 4; j++) {
+            qmc_result r = run_tensor_hook(F_COS, 2.0, 3, cases[i].rule, cases[i].n,
+                                           1000000, &rc, &seen, why, sizeof why, &h, ks[j]);
+            check_stopped(rc, &r, &seen, &h, ks[j]);
+            assert_non_null(strstr(why, "stopped by the interrupt hook"));
+            assert_true(r.evals < plain.evals);
+        }
+    }
+    /* Gauss-Legendre nodes for n = 4000 (and 2000 for the error) take
+     * tens of millions of recurrence steps before the first evaluation:
+     * the hook stops them there. */
+    qmc_result r = run_tensor_hook(F_EXP, 0.0, 1, QMC_RULE1D_GAUSS_LEGENDRE, 4000, 1000000,
+                                   &rc, &seen, why, sizeof why, &h, 0);
+    assert_int_equal(rc, 0);
+    assert_int_equal(r.evals, 6000);
+    assert_true(h.calls > 1000); /* the nodes polled it, not just the points */
+    r = run_tensor_hook(F_EXP, 0.0, 1, QMC_RULE1D_GAUSS_LEGENDRE, 4000, 1000000, &rc, &seen,
+                        why, sizeof why, &h, 100);
+    check_stopped(rc, &r, &seen, &h, 100);
+    assert_int_equal(seen.calls, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -641,6 +760,8 @@ int main(void)
         cmocka_unit_test(test_gk_budget_and_errors),
         cmocka_unit_test(test_tensor_accuracy),
         cmocka_unit_test(test_tensor_budget),
+        cmocka_unit_test(test_gk_interrupt),
+        cmocka_unit_test(test_tensor_interrupt),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
