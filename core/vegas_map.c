@@ -1,14 +1,19 @@
 /*
  * vegas_map.c - the VEGAS map and its training (see vegas_map.h).
  *
- * Training: ROUNDS rounds of owen-scrambled Sobol points over u.  Round 0
+ * Training: up to MAX_ROUNDS rounds of owen-scrambled Sobol points over u
+ * (as many as the pilot affords at MIN_DIM_POINTS points per dimension,
+ * at least MIN_ROUNDS).  Round 0
  * uses the identity map; after each round but the last, every axis
  * accumulates (f J)^2 per bin of u, and the bins are redrawn so that each
  * holds an equal share of the smoothed, damped sums (Lepage 2021, section
  * 2: smoothing (d[i-1] + 6 d[i] + d[i+1]) / 8, damping ((1 - d) / ln(1/d))
  * ^ ALPHA).  The last round only measures: its map is the one returned,
  * and its variance is the one reported, so the decision to use the map is
- * made on the map itself.  Every bin keeps at least FLOOR of the mean
+ * made on the map itself.  A map that has not halved the variance after
+ * EARLY_ROUND rounds stops there (a flat integrand such as the oscillatory
+ * family never gains, and the rest of its pilot would be wasted).  Every
+ * bin keeps at least FLOOR of the mean
  * share, so the density never vanishes where the pilot saw f = 0 (a zero
  * density there would make the estimate biased for an f that is not zero
  * somewhere the pilot missed).
@@ -24,11 +29,14 @@
 #include "vegas_map.h"
 
 enum {
-    ROUNDS = 12,
+    MAX_ROUNDS = 12,
+    MIN_ROUNDS = 4,
+    EARLY_ROUND = 3,      /* the round that must show EARLY_GAIN */
+    EARLY_GAIN = 2,
     MAX_BINS = 64,
     MIN_BIN_POINTS = 8,   /* pilot points per bin per round, at least */
-    MIN_DIM_POINTS = 32,  /* pilot points per round per dimension, at least:
-                             with fewer (d = 30, 833 a round) maps of the
+    MIN_DIM_POINTS = 48,  /* pilot points per round per dimension, at least:
+                             with 28 (d = 30, 833 a round) maps of the
                              corner-peak family passed every check and still
                              missed 60% of the integral */
     STACK_DOUBLES = 2048  /* the mapped eval's buffer: 16 KiB of x, + J */
@@ -197,9 +205,14 @@ int qmc__vmap_train(const qmc_integrand *f, uint64_t pilot_evals, uint64_t seed,
     memset(rep, 0, sizeof *rep);
     if (f->dims == 0 || f->dims > QMC__VMAP_MAX_DIMS)
         return QMC_EDIMS;
-    const uint64_t per_round = pilot_evals / ROUNDS;
-    if (per_round < 2 * MIN_BIN_POINTS || per_round < (uint64_t)MIN_DIM_POINTS * f->dims)
+    uint64_t least = (uint64_t)MIN_DIM_POINTS * f->dims;
+    if (least < 2 * MIN_BIN_POINTS)
+        least = 2 * MIN_BIN_POINTS;
+    const uint64_t affordable = pilot_evals / least;
+    if (affordable < MIN_ROUNDS)
         return QMC_EBUDGET;
+    const uint32_t rounds = affordable < MAX_ROUNDS ? (uint32_t)affordable : MAX_ROUNDS;
+    const uint64_t per_round = pilot_evals / rounds;
     uint32_t bins = MAX_BINS;
     while (bins > 2 && per_round < (uint64_t)bins * MIN_BIN_POINTS)
         bins /= 2;
@@ -220,8 +233,8 @@ int qmc__vmap_train(const qmc_integrand *f, uint64_t pilot_evals, uint64_t seed,
     qmc__poll poll;
     qmc__poll_init(&poll, hook);
     int err = qmc__poll_now(&poll) ? QMC_ECANCELED : 0;
-    for (uint32_t round = 0; round < ROUNDS && !err && !rep->nonfinite; round++) {
-        const int last = round + 1 == ROUNDS;
+    for (uint32_t round = 0; round < rounds && !err && !rep->nonfinite; round++) {
+        const int last = round + 1 == rounds;
         qmc_seq_spec spec = {.kind = QMC_SEQ_SOBOL, .dims = d, .scramble = QMC_SCRAMBLE_OWEN,
                              .seed = qmc__hash3(seed, round, TAG_VMAP)};
         qmc_seq *seq = NULL;
@@ -270,6 +283,8 @@ int qmc__vmap_train(const qmc_integrand *f, uint64_t pilot_evals, uint64_t seed,
         rep->var_mapped = var;
         rep->mean_mapped = mean;
         rep->rounds = round + 1;
+        if (round == EARLY_ROUND && var * EARLY_GAIN > rep->var_plain)
+            break; /* no gain coming: this round's map is the answer */
         if (!last)
             for (uint32_t a = 0; a < d; a++)
                 refine_axis(m, a, sums + (size_t)a * bins, tmp);

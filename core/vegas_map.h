@@ -31,7 +31,7 @@ typedef struct qmc__vmap qmc__vmap;
 
 typedef struct qmc__vmap_report {
     uint64_t evals;        /* pilot evaluations made */
-    uint32_t rounds, bins; /* pilot rounds and bins per axis */
+    uint32_t rounds, bins; /* pilot rounds run and bins per axis */
     double var_plain;      /* variance of f over the first round (no map) */
     double var_mapped;     /* variance of f J over the last round's map */
     double mean_plain;     /* the two rounds' means of f and of f J */

@@ -140,8 +140,13 @@ static void test_refusals(void **state)
 
     qmc_testfn *fn = genz("genz-gaussian", 20, 1);
     const qmc_integrand *f = qmc_testfn_integrand(fn);
-    /* 20 dims need 32 x 20 pilot points a round. */
-    assert_int_equal(qmc__vmap_train(f, 5000, 1, NULL, &m, &rep), QMC_EBUDGET);
+    /* 20 dims need 4 rounds of 48 x 20 pilot points. */
+    assert_int_equal(qmc__vmap_train(f, 3839, 1, NULL, &m, &rep), QMC_EBUDGET);
+    assert_null(m);
+    assert_int_equal(qmc__vmap_train(f, 3840, 1, NULL, &m, &rep), 0);
+    assert_non_null(m);
+    qmc__vmap_free(m);
+    m = NULL;
     assert_null(m);
     qmc_interrupt hook = {stop_now, NULL};
     assert_int_equal(qmc__vmap_train(f, 100000, 1, &hook, &m, &rep), QMC_ECANCELED);
@@ -191,6 +196,16 @@ static void test_auto_takes_the_map_where_it_pays(void **state)
     r = run_auto("genz-oscillatory", 20, 1, 1000000, &f, &fn);
     assert_null(strstr(r.auto_reason, "over a VEGAS map"));
     assert_non_null(strstr(r.auto_reason, "pilot"));
+    qmc_testfn_free(fn);
+    /* ... and its pilot gave up early: 4 rounds of 12, about a third of
+     * the tenth of the budget. */
+    qmc__vmap_report rep;
+    qmc__vmap *m = NULL;
+    fn = genz("genz-oscillatory", 20, 1);
+    assert_int_equal(qmc__vmap_train(qmc_testfn_integrand(fn), 100000, 1, NULL, &m, &rep), 0);
+    assert_int_equal(rep.rounds, 4);
+    assert_true(rep.evals < 40000);
+    qmc__vmap_free(m);
     qmc_testfn_free(fn);
 
     r = run_auto("genz-discontinuous", 20, 1, 1000000, &f, &fn);
