@@ -11,9 +11,12 @@
 #       the same pipelining, over TCP (Redis's transport) and the Unix
 #       socket (against redis-benchmark on Redis's Unix socket);
 #   (c) one POINTS stream, sobol d=32, 2^22 points f64 (1 GiB), over the
-#       Unix socket, against qmc_seq_fill in-process and against the raw
-#       AF_UNIX socketpair ceiling, with qmcd's VmRSS before, at its peak
-#       during, and after the stream.
+#       Unix socket - inline (POINTS_CHUNK frames) and through a shared-
+#       memory ring (qmc-load --bulk --shm: libqmcclient with 8 slots of
+#       1 MiB, each chunk touched and released as a client would) - against
+#       qmc_seq_fill in-process and against the raw AF_UNIX socketpair
+#       ceiling, with qmcd's VmRSS before, at its peak during, and after
+#       each stream.
 # Each small-request run also reports the server's CPU time per request
 # (utime + stime from /proc/PID/stat), which does not depend on how fast
 # the load generator is.
@@ -37,6 +40,8 @@ CLIENTS=50
 OUT_BUFFER=4194304      # qmcd --out-buffer-bytes, named so RSS can be judged
 BULK_DIMS=32
 BULK_COUNT=4194304
+SHM_SLOTS=8             # the ring of the shm bulk run: slots x slot bytes
+SHM_SLOT_BYTES=1048576
 
 for f in "$QMCD" "$LOAD"; do
     [ -x "$f" ] || { echo "bench_daemon: $f is missing (make $f)" >&2; exit 1; }
@@ -239,9 +244,13 @@ ceil=$("$LOAD" --unix-ceiling --dims $BULK_DIMS --count $BULK_COUNT --repeat 5 |
 bulk=$(timeout 60 "$LOAD" --bulk --connect "$QUNIX" --dims $BULK_DIMS --count $BULK_COUNT --repeat 5 \
     --rss-pid "$qpid" --timeout 30 2> "$tmp/bulk.err" | grep '^RESULT')
 [ -n "$bulk" ] || echo "bench_daemon: bulk failed: $(head -c 300 "$tmp/bulk.err")" >&2
+shm=$(timeout 60 "$LOAD" --bulk --shm --slots $SHM_SLOTS --slot-bytes $SHM_SLOT_BYTES \
+    --connect "$QUNIX" --dims $BULK_DIMS --count $BULK_COUNT --repeat 5 --rss-pid "$qpid" \
+    --timeout 30 2> "$tmp/shm.err" | grep '^RESULT')
+[ -n "$shm" ] || echo "bench_daemon: bulk --shm failed: $(head -c 300 "$tmp/shm.err")" >&2
 BCSV=$OUT/daemon-bulk.csv
 echo "what,mb_per_s,points_per_s,seconds,rss_before_kib,rss_peak_kib,rss_after_kib" > "$BCSV"
-for r in "$inproc" "$ceil" "$bulk"; do
+for r in "$inproc" "$ceil" "$bulk" "$shm"; do
     [ -n "$r" ] && echo "$(kv mode "$r"),$(kv mbps "$r"),$(kv points_per_s "$r"),$(kv seconds "$r")," \
         "$(kv rss_before_kib "$r"),$(kv rss_peak_kib "$r"),$(kv rss_after_kib "$r")" |
         tr -d ' ' >> "$BCSV"
@@ -249,15 +258,24 @@ done
 m_in=$(kv mbps "$inproc")
 m_ceil=$(kv mbps "$ceil")
 m_bulk=$(kv mbps "$bulk")
+m_shm=$(kv mbps "$shm")
 rss0=$(kv rss_before_kib "$bulk")
 rssp=$(kv rss_peak_kib "$bulk")
 rss1=$(kv rss_after_kib "$bulk")
+srss0=$(kv rss_before_kib "$shm")
+srssp=$(kv rss_peak_kib "$shm")
+srss1=$(kv rss_after_kib "$shm")
+RING_KIB=$((SHM_SLOTS * SHM_SLOT_BYTES / 1024))
 printf '  %-44s %10s MB/s %12s points/s\n' "in-process qmc_seq_fill (1 MiB chunks)" "$m_in" "$(kv points_per_s "$inproc")"
 printf '  %-44s %10s MB/s   (no generation: the transport bound)\n' "AF_UNIX socketpair, 1 MiB sends" "$m_ceil"
-printf '  %-44s %10s MB/s %12s points/s\n' "qmcd over its Unix socket (qmc-load --bulk)" "$m_bulk" "$(kv points_per_s "$bulk")"
+printf '  %-44s %10s MB/s %12s points/s\n' "qmcd over its Unix socket, inline chunks" "$m_bulk" "$(kv points_per_s "$bulk")"
+printf '  %-44s %10s MB/s %12s points/s\n' "qmcd over its Unix socket, shm ring $SHM_SLOTS x $((SHM_SLOT_BYTES / 1024)) KiB" "$m_shm" "$(kv points_per_s "$shm")"
 growth=$(( ${rssp:-0} - ${rss0:-0} ))
-echo "  qmcd VmRSS: before $rss0 KiB, peak during $rssp KiB (+$growth KiB), after $rss1 KiB;" \
+sgrowth=$(( ${srssp:-0} - ${srss0:-0} ))
+echo "  qmcd VmRSS, inline: before $rss0 KiB, peak during $rssp KiB (+$growth KiB), after $rss1 KiB;" \
     "out-buffer-bytes $((OUT_BUFFER / 1024)) KiB"
+echo "  qmcd VmRSS, shm:    before $srss0 KiB, peak during $srssp KiB (+$sgrowth KiB), after $srss1 KiB;" \
+    "the client's ring, mapped: $RING_KIB KiB"
 
 # ---- verdicts ---------------------------------------------------------------------
 # verdict TEXT RATIO TARGET
@@ -274,12 +292,19 @@ for tr in tcp unix; do
         verdict "qmcd POINTS(1 pt) / redis PING, $tr, P=$P" "$(ratio "$(get qmcd $tr points $P 6)" "$rr")" 1.0
     done
 done
-verdict "bulk over unix / in-process fill" "$(ratio "$m_bulk" "$m_in")" 0.5
-echo "  (for reference: bulk / socketpair ceiling $(ratio "$m_bulk" "$m_ceil")x;" \
-    "ceiling / in-process $(ratio "$m_ceil" "$m_in")x)"
+verdict "bulk over unix, shm ring / in-process fill" "$(ratio "$m_shm" "$m_in")" 0.5
+echo "  (for reference: inline / in-process $(ratio "$m_bulk" "$m_in")x; inline / socketpair" \
+    "ceiling $(ratio "$m_bulk" "$m_ceil")x; ceiling / in-process $(ratio "$m_ceil" "$m_in")x;" \
+    "shm / inline $(ratio "$m_shm" "$m_bulk")x)"
 # "Near the output buffer": the peak grows by at most twice out-buffer-bytes
 # (the buffer, plus the copy made while it doubles to its cap).
 if [ -n "$rssp" ] && [ "$growth" -le $((2 * OUT_BUFFER / 1024)) ]; then v=met; else v=MISSED; fi
 printf '  %-46s %7s KiB (target <= 2 x out-buffer-bytes = %s KiB: %s)\n' \
     "qmcd RSS growth during the 1 GiB stream" "$growth" "$((2 * OUT_BUFFER / 1024))" "$v"
+# Through the ring the daemon's own memory should not grow: what it gains
+# is the client's ring, mapped (shared pages the client allocated).
+own=$((sgrowth - RING_KIB))
+if [ -n "$srssp" ] && [ "$own" -le $((2 * OUT_BUFFER / 1024)) ]; then v=met; else v=MISSED; fi
+printf '  %-46s %7s KiB (target <= 2 x out-buffer-bytes = %s KiB: %s)\n' \
+    "qmcd RSS growth, shm stream, less its ring" "$own" "$((2 * OUT_BUFFER / 1024))" "$v"
 echo "csv: $CSV $BCSV"

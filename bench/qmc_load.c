@@ -18,6 +18,11 @@
  *                   discarded; prints MB/s (10^6 bytes of point data) and
  *                   points/s.  With --rss-pid it samples that process's
  *                   VmRSS before, during (peak) and after the stream.
+ *                   With --shm the points come through a shared-memory
+ *                   ring (--slots, --slot-bytes; PROTOCOL.md section 10)
+ *                   fetched by libqmcclient as any client would: each
+ *                   chunk is touched (one byte read, as --inprocess does)
+ *                   and its slot released.
  *   --inprocess     the same points generated here with qmc_seq_fill, in
  *                   chunks of the size the daemon uses, into one reused
  *                   buffer: the rate the socket path is measured against.
@@ -51,6 +56,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "qmc/client.h"
 #include "qmc/proto.h"
 #include "qmc/seq.h"
 
@@ -78,6 +84,8 @@ typedef struct opts {
     int bulk, inprocess, ceiling, dims_set, count_set;
     unsigned repeat;            /* bulk and inprocess: runs, median reported */
     long rss_pid;
+    int shm;                    /* bulk through a shared-memory ring */
+    uint32_t slots, slot_bytes; /* its geometry */
 } opts;
 
 static const char usage[] =
@@ -86,14 +94,15 @@ static const char usage[] =
     "                [--seq KIND] [--dims D] [--count N] [--format F] [--scramble S]\n"
     "                [--seed N] [--timeout S]\n"
     "       qmc-load --bulk --connect ENDPOINT [--dims D] [--count N] [--format F]\n"
-    "                [--repeat R] [--rss-pid PID]\n"
+    "                [--repeat R] [--rss-pid PID] [--shm [--slots S] [--slot-bytes B]]\n"
     "       qmc-load --inprocess | --unix-ceiling [--dims D] [--count N] [--format F]\n"
     "                [--repeat R]\n"
     "Load defaults: 50 clients, 1 thread, pipeline 1, 100000 requests, mix ping=1,\n"
     "POINTS of 1 point of sobol d=8 f64.  Bulk and inprocess defaults: sobol d=32,\n"
     "4194304 points, f64, 3 runs (median).  --timeout (default 60 s) bounds any run;\n"
     "with both --requests and --seconds a run stops at whichever comes first.\n"
-    "--unix-ceiling: the same bytes through a socketpair, no generation (the bound).\n";
+    "--unix-ceiling: the same bytes through a socketpair, no generation (the bound).\n"
+    "--shm: bulk through a shared-memory ring (unix: only), default 8 slots of 1 MiB.\n";
 
 static void die(const char *what)
 {
@@ -148,6 +157,8 @@ static void parse_args(int argc, char **argv, opts *o)
     o->format = QMC_FORMAT_F64;
     o->count = 1;
     o->repeat = 3;
+    o->slots = 8;
+    o->slot_bytes = 1u << 20;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--bulk") == 0) {
@@ -160,6 +171,10 @@ static void parse_args(int argc, char **argv, opts *o)
         }
         if (strcmp(a, "--unix-ceiling") == 0) {
             o->ceiling = 1;
+            continue;
+        }
+        if (strcmp(a, "--shm") == 0) {
+            o->shm = 1;
             continue;
         }
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -197,6 +212,10 @@ static void parse_args(int argc, char **argv, opts *o)
             o->repeat = (unsigned)parse_u64(v, a);
         else if (strcmp(a, "--rss-pid") == 0)
             o->rss_pid = (long)parse_u64(v, a);
+        else if (strcmp(a, "--slots") == 0)
+            o->slots = (uint32_t)parse_u64(v, a);
+        else if (strcmp(a, "--slot-bytes") == 0)
+            o->slot_bytes = (uint32_t)parse_u64(v, a);
         else if (strcmp(a, "--seq") == 0) {
             if (qmc_seq_kind_parse(v, &o->seq.kind) != 0)
                 die("--seq: unknown kind");
@@ -420,7 +439,8 @@ static int open_session(const char *ep, uint8_t *buf, uint32_t *max_inflight)
         return -1;
     static const char name[] = "qmc-load/1";
     qmc_msg m = {.type = QMC_MSG_HELLO, .request_id = 1};
-    m.u.hello.version_min = m.u.hello.version_max = QMC_PROTO_VERSION;
+    m.u.hello.version_min = 1;
+    m.u.hello.version_max = QMC_PROTO_VERSION_MAX;
     m.u.hello.max_frame = MAX_FRAME;
     m.u.hello.client = (qmc_str){name, sizeof name - 1};
     int n = qmc_proto_encode(&m, buf, FRAME_BUF);
@@ -961,6 +981,78 @@ static int run_bulk(const opts *o)
     return 0;
 }
 
+/* What a client does with each chunk: reads a byte of it (as --inprocess
+ * does with its buffer), and samples the daemon's VmRSS now and then. */
+typedef struct shm_sink {
+    long rss_pid, rss_peak;
+    uint64_t next_sample_ns, chunks;
+    uint8_t sink;
+} shm_sink;
+
+static int touch_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
+                       size_t bytes)
+{
+    shm_sink *k = ctx;
+    (void)first, (void)points;
+    k->sink ^= ((const volatile uint8_t *)data)[bytes / 2];
+    k->chunks++;
+    if (k->rss_pid) {
+        uint64_t now = now_ns();
+        if (now >= k->next_sample_ns) { /* every 2 ms: /proc reads are not free */
+            long kib = rss_kib(k->rss_pid);
+            if (kib > k->rss_peak)
+                k->rss_peak = kib;
+            k->next_sample_ns = now + 2000000;
+        }
+    }
+    return 0;
+}
+
+/* --bulk --shm: libqmcclient with a ring attached, one stream per run. */
+static int run_bulk_shm(const opts *o)
+{
+    /* Before connecting: the ring the daemon maps is part of what it holds
+     * during the stream (its RssShmem; the pages are the client's). */
+    long rss_before = o->rss_pid ? rss_kib(o->rss_pid) : -1;
+    qmc_client *c = NULL;
+    int ms = o->timeout_s > 0 && o->timeout_s < 2e6 ? (int)(o->timeout_s * 1000) : -1;
+    int err = qmc_client_connect(o->endpoint, ms, &c);
+    if (!err)
+        err = qmc_client_attach_shm(c, o->slots, o->slot_bytes);
+    if (err) {
+        fprintf(stderr, "qmc-load: %s: %s\n", o->endpoint, qmc_client_last_error(c));
+        qmc_client_close(c);
+        return 1;
+    }
+    size_t row = (size_t)o->seq.dims * qmc_format_bytes(o->format);
+    shm_sink k = {.rss_pid = o->rss_pid};
+    k.rss_peak = rss_before;
+    double secs[64];
+    unsigned runs = o->repeat > 64 ? 64 : o->repeat;
+    for (unsigned r = 0; r < runs; r++) {
+        uint64_t t0 = now_ns();
+        err = qmc_client_points_stream(c, &o->seq, 0, o->count, o->format, touch_chunk, &k);
+        secs[r] = (double)(now_ns() - t0) / 1e9;
+        if (err) {
+            fprintf(stderr, "qmc-load: %s\n", qmc_client_last_error(c));
+            qmc_client_close(c);
+            return 1;
+        }
+    }
+    long rss_after = -1;
+    if (o->rss_pid) {
+        struct timespec ts = {0, 100 * 1000000L};
+        nanosleep(&ts, NULL);
+        rss_after = rss_kib(o->rss_pid);
+    }
+    qmc_client_close(c);
+    print_rate("bulk-shm", o, secs, runs, (uint64_t)o->count * row);
+    printf(" frames=%llu slots=%u slot_bytes=%u rss_before_kib=%ld rss_peak_kib=%ld "
+           "rss_after_kib=%ld\n", (unsigned long long)k.chunks, o->slots, o->slot_bytes,
+           rss_before, k.rss_peak, rss_after);
+    return 0;
+}
+
 /* The transport's ceiling: the same bytes through an AF_UNIX socketpair,
  * written in chunk-sized sends by one thread and read by another, with no
  * generation and no protocol.  No daemon can stream faster than this. */
@@ -1031,6 +1123,6 @@ int main(int argc, char **argv)
     if (o.ceiling)
         return run_ceiling(&o);
     if (o.bulk)
-        return run_bulk(&o);
+        return o.shm ? run_bulk_shm(&o) : run_bulk(&o);
     return run_load(&o);
 }

@@ -11,6 +11,17 @@
  * back on it) instead of growing our memory; and POINTS data is generated
  * only into free space (points.c), never queued ahead of the socket.
  *
+ * Descriptors.  Unix-socket connections are read with recvmsg, so that a
+ * memfd passed with SCM_RIGHTS (SHM_ATTACH, PROTOCOL.md section 10) is
+ * seen.  Linux hands a descriptor out with the read that reaches the first
+ * byte of the sendmsg that carried it; that read may begin with bytes sent
+ * before (never after), so all we know is that the descriptor's bytes lie
+ * within the read.  It is kept, with the read's stream offsets, until the
+ * first SHM_ATTACH frame that begins within them claims it.  A descriptor
+ * whose bytes hold no SHM_ATTACH start, more than one at once, a truncated
+ * control message: all are closed at once and the connection fails, so a
+ * peer cannot leave descriptors in the daemon.
+ *
  * Closing.  A connection that gets a fatal ERROR (malformed frame,
  * timeouts) stops reading requests, flushes the ERROR, shuts down its
  * write side and discards input until the peer closes or QMCD_LINGER_MS
@@ -32,6 +43,7 @@
 #include <netinet/tcp.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -50,6 +62,9 @@
 #define PUMP_ROUNDS 8
 #define PRODUCE_LIMIT 256
 #define PRODUCE_BATCH_BYTES (64u << 10)
+/* Descriptors one recvmsg can take; a legitimate peer sends one at a time
+ * (room for more only so that extras are seen and closed, not truncated). */
+#define RECV_FDS_MAX 4
 
 static void conn_on_event(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 
@@ -173,6 +188,13 @@ int qmcd_conn_error(qmcd_conn *c, uint64_t request_id, int code, const char *fmt
 
 /* ---- lifecycle ------------------------------------------------------------------ */
 
+static void drop_passed_fd(qmcd_conn *c)
+{
+    if (c->passed_fd >= 0)
+        close(c->passed_fd);
+    c->passed_fd = -1;
+}
+
 static void unlink_conn(qmcd_conn *c)
 {
     qmcd_server *srv = c->srv;
@@ -195,6 +217,7 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
              "conn %llu (%s): closed: %s", (unsigned long long)c->id, c->peer, why);
     qmcd_points_drop_all(c);
     qmcd_jobs_drop_all(c);
+    drop_passed_fd(c);
     qmcd_loop_del(srv, &c->w);
     close(c->w.fd);
     c->w.fd = -1;
@@ -237,6 +260,7 @@ void qmcd_conn_fail(qmcd_conn *c, uint64_t request_id, int code, const char *fmt
     c->close_by_ms = qmcd_now_ms() + QMCD_LINGER_MS;
     qmcd_points_drop_all(c);
     qmcd_jobs_drop_all(c);
+    drop_passed_fd(c);
     c->in_len = 0;
     c->partial_ms = 0;
     qmcd_conn_kick(c);
@@ -334,6 +358,11 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         c->srv = srv;
         c->w.fd = fd;
         c->w.on_event = conn_on_event;
+        c->passed_fd = -1;
+        struct sockaddr_storage own;
+        socklen_t own_len = sizeof own;
+        c->unix_socket = getsockname(fd, (struct sockaddr *)&own, &own_len) == 0 &&
+                         own.ss_family == AF_UNIX;
         c->id = ++srv->next_conn_id;
         c->accepted_ms = c->active_ms = qmcd_now_ms();
         describe_peer(fd, l, c->peer, sizeof c->peer);
@@ -388,6 +417,14 @@ static void parse_frames_inner(qmcd_conn *c)
     while (!c->dead && !c->closing && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE) {
         const uint8_t *p = c->in + off;
         size_t avail = c->in_len - off;
+        /* Every frame that began within a passed descriptor's bytes has
+         * been read, and none claimed it. */
+        if (c->passed_fd >= 0 && c->in_offset + off >= c->passed_fd_to) {
+            c->srv->stats.malformed++;
+            qmcd_conn_fail(c, 0, QMC_EPROTO, "a file descriptor came without an SHM_ATTACH "
+                           "frame; only SHM_ATTACH carries one");
+            return;
+        }
         if (avail == 0)
             break;
         qmc_msg_type type;
@@ -431,16 +468,26 @@ static void parse_frames_inner(qmcd_conn *c)
             }
             break;
         }
+        /* The first SHM_ATTACH that begins within the bytes a passed
+         * descriptor came with takes it. */
+        int fd = -1;
+        const uint64_t at = c->in_offset + off;
+        if (c->passed_fd >= 0 && type == QMC_MSG_SHM_ATTACH && at >= c->passed_fd_from) {
+            fd = c->passed_fd;
+            c->passed_fd = -1;
+        }
         qmc_msg m;
         rc = qmc_proto_decode(p, frame, max_payload(c), &m);
         if (rc < 0) {
+            if (fd >= 0)
+                close(fd);
             c->srv->stats.malformed++;
             qmcd_conn_fail(c, id, rc, "malformed %s payload: %s", qmc_msg_type_name(type),
                            qmc_strerror(rc));
             return;
         }
         c->srv->stats.frames_in++;
-        qmcd_dispatch(c, &m, t0_us);
+        qmcd_dispatch(c, &m, fd, t0_us);
         off += frame;
     }
     if (c->dead)
@@ -452,6 +499,7 @@ static void parse_frames_inner(qmcd_conn *c)
     if (off) {
         memmove(c->in, c->in + off, c->in_len - off);
         c->in_len -= off;
+        c->in_offset += off;
         c->partial_ms = 0;
     }
     if (c->in_len && !c->partial_ms)
@@ -471,6 +519,66 @@ static void parse_frames(qmcd_conn *c)
     c->parsing = 1;
     parse_frames_inner(c);
     c->parsing = 0;
+}
+
+/* recv, or on a Unix socket recvmsg that also takes passed descriptors
+ * (see the file comment).  Returns as recv, or -2 after failing the
+ * connection for a descriptor it may not send. */
+static ssize_t conn_recv(qmcd_conn *c, uint8_t *buf, size_t n)
+{
+    if (!c->unix_socket)
+        return recv(c->w.fd, buf, n, 0);
+    union {
+        struct cmsghdr align;
+        char bytes[CMSG_SPACE(sizeof(int) * RECV_FDS_MAX)];
+    } ctl;
+    struct iovec iov = {buf, n};
+    struct msghdr mh;
+    memset(&mh, 0, sizeof mh);
+    mh.msg_iov = &iov;
+    mh.msg_iovlen = 1;
+    mh.msg_control = ctl.bytes;
+    mh.msg_controllen = sizeof ctl.bytes;
+    ssize_t r = recvmsg(c->w.fd, &mh, MSG_CMSG_CLOEXEC);
+    if (r < 0)
+        return r;
+    int fds[RECV_FDS_MAX];
+    size_t nfds = 0, extra = 0;
+    for (struct cmsghdr *cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm)) {
+        if (cm->cmsg_level != SOL_SOCKET || cm->cmsg_type != SCM_RIGHTS)
+            continue;
+        size_t k = (cm->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+        for (size_t i = 0; i < k; i++) {
+            int fd;
+            memcpy(&fd, CMSG_DATA(cm) + i * sizeof(int), sizeof fd);
+            if (nfds < RECV_FDS_MAX) {
+                fds[nfds++] = fd;
+            } else {
+                close(fd);
+                extra++;
+            }
+        }
+    }
+    if (nfds == 0 && !(mh.msg_flags & MSG_CTRUNC))
+        return r;
+    const char *why = NULL;
+    if (mh.msg_flags & MSG_CTRUNC)
+        why = "more file descriptors than one message may carry";
+    else if (nfds + extra > 1)
+        why = "more than one file descriptor at once";
+    else if (c->passed_fd >= 0)
+        why = "a second file descriptor before the first was claimed";
+    if (why) {
+        for (size_t i = 0; i < nfds; i++)
+            close(fds[i]);
+        c->srv->stats.malformed++;
+        qmcd_conn_fail(c, 0, QMC_EPROTO, "%s; only SHM_ATTACH carries one", why);
+        return -2;
+    }
+    c->passed_fd = fds[0];
+    c->passed_fd_from = c->in_offset + c->in_len;
+    c->passed_fd_to = c->passed_fd_from + (uint64_t)r;
+    return r;
 }
 
 static void do_read(qmcd_conn *c)
@@ -496,7 +604,10 @@ static void do_read(qmcd_conn *c)
          * up to the header plus max-frame. */
         if (c->in_len == c->in_alloc)
             return;
-        ssize_t n = recv(c->w.fd, c->in + c->in_len, c->in_alloc - c->in_len, 0);
+        const size_t asked = c->in_alloc - c->in_len;
+        ssize_t n = conn_recv(c, c->in + c->in_len, asked);
+        if (n == -2)
+            return; /* failed: a descriptor it may not pass */
         if (n > 0) {
             c->in_len += (size_t)n;
             total += (size_t)n;
@@ -505,6 +616,12 @@ static void do_read(qmcd_conn *c)
             parse_frames(c);
             if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
                 return; /* answers are backing up: stop reading */
+            /* A short read took what was there: skip the recv that would
+             * only say EAGAIN (a syscall per request on the small-request
+             * path).  epoll is level-triggered, so whatever arrives later,
+             * EOF included, is reported again. */
+            if ((size_t)n < asked)
+                return;
             continue;
         }
         if (n == 0) {
@@ -561,7 +678,9 @@ static void update_interest(qmcd_conn *c)
     } else {
         if (!c->peer_eof && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE)
             ev |= EPOLLIN;
-        if (pending || c->n_streams)
+        /* Streams waiting for ring slots wait for SHM_RELEASE (EPOLLIN):
+         * a writable socket alone would only spin the loop. */
+        if (pending || qmcd_points_want_output(c))
             ev |= EPOLLOUT;
     }
     if (qmcd_loop_mod(c->srv, &c->w, ev) != 0)
@@ -592,8 +711,10 @@ void qmcd_conn_kick(qmcd_conn *c)
             produced = 1;
             /* Batching pays for small frames; a bulk chunk is a full send
              * by itself, and unsent bytes get moved when the next frame is
-             * reserved - so stop once a batch is worth a send. */
-            if (c->out_tail - c->out_head >= PRODUCE_BATCH_BYTES)
+             * reserved - so stop once a batch is worth a send.  Ring
+             * chunks go out half a ring at a time (points.c): the client
+             * reads one half while we fill the other. */
+            if ((p & QMCD_PUMP_FLUSH) || c->out_tail - c->out_head >= PRODUCE_BATCH_BYTES)
                 break;
         }
         if (c->dead || flush(c) != 0)
@@ -606,6 +727,12 @@ void qmcd_conn_kick(qmcd_conn *c)
     if (c->closing && c->out_tail == c->out_head && !c->wr_shut) {
         shutdown(c->w.fd, SHUT_WR);
         c->wr_shut = 1;
+    }
+    /* A peer that half-closed cannot release slots: a stream waiting for
+     * one would wait forever. */
+    if (c->peer_eof && !c->closing && c->in_len == 0 && qmcd_points_ring_stalled_ms(c)) {
+        qmcd_conn_close(c, "peer closed while holding every ring slot");
+        return;
     }
     /* A peer that half-closed gets its answers, then we close. */
     if (c->peer_eof && !c->closing && c->n_streams == 0 && c->n_jobs == 0 &&
@@ -663,6 +790,17 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                       "(write-timeout-ms)", (unsigned long long)c->id, c->peer,
                       (unsigned long long)cfg->write_timeout_ms);
             qmcd_conn_close(c, "write-timeout-ms");
+            continue;
+        }
+        int64_t ring_ms = qmcd_points_ring_stalled_ms(c);
+        if (ring_ms && now - ring_ms >= (int64_t)cfg->write_timeout_ms) {
+            srv->stats.conns_timed_out++;
+            qmcd_warn("conn %llu (%s): no SHM_RELEASE for %llu ms with every ring slot held "
+                      "(write-timeout-ms)", (unsigned long long)c->id, c->peer,
+                      (unsigned long long)cfg->write_timeout_ms);
+            qmcd_conn_fail(c, 0, -ETIMEDOUT, "write-timeout-ms: no SHM_RELEASE for %llu ms "
+                           "while a stream waits for a ring slot",
+                           (unsigned long long)cfg->write_timeout_ms);
             continue;
         }
         if (!c->hello_done && now - c->accepted_ms >= (int64_t)cfg->handshake_timeout_ms) {

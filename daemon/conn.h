@@ -13,6 +13,7 @@
 
 typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
+typedef struct qmcd_ring qmcd_ring;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
  * JOB_RESULT): requests are read only while this much is free, and POINTS
@@ -35,11 +36,18 @@ struct qmcd_conn {
     int closing;                 /* ERROR sent: flush, shut down, close */
     int wr_shut;                 /* shutdown(SHUT_WR) done: only draining */
     int parsing;                 /* inside parse_frames (no re-entry) */
+    int unix_socket;             /* AF_UNIX: read with recvmsg, may pass fds */
     uint32_t client_max_frame;   /* HELLO: the largest payload it accepts */
     uint32_t server_max_frame;   /* HELLO_OK: what we promised to accept; a
                                     SIGHUP does not change it for this peer */
     uint8_t *in;                 /* received bytes, in[0 .. in_len) */
     size_t in_len, in_alloc;
+    uint64_t in_offset;          /* stream offset of in[0] (bytes consumed) */
+    int passed_fd;               /* a descriptor received with SCM_RIGHTS and
+                                    not yet claimed by its SHM_ATTACH, or -1 */
+    uint64_t passed_fd_from;     /* the stream offsets of the bytes that came
+                                    with it: [from, to) */
+    uint64_t passed_fd_to;
     uint8_t *out;                /* pending output, out[out_head .. out_tail) */
     size_t out_head, out_tail, out_alloc;
     int64_t accepted_ms, active_ms;
@@ -50,6 +58,8 @@ struct qmcd_conn {
     unsigned n_streams;
     qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
     unsigned n_jobs;
+    qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
+                                    or NULL */
 };
 
 /* Accept handler for a listening socket's watch. */

@@ -1,7 +1,8 @@
 /*
  * dispatch.c - routes each decoded request to its handler and answers the
- * small ones (HELLO, PING, STATS) at once.  POINTS and INTEGRATE only start
- * here; their answers come later, tagged with the request id, so many
+ * small ones (HELLO, PING, STATS) at once; SHM_ATTACH and SHM_RELEASE go to
+ * the ring in points.c, with the descriptor that came with SHM_ATTACH.
+ * POINTS and INTEGRATE only start here; their answers come later, tagged with the request id, so many
  * requests can be in flight on one connection and answers may come back
  * out of order (PROTOCOL.md, pipelining).
  *
@@ -10,12 +11,17 @@
  */
 #include <errno.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "dispatch.h"
 #include "jobs.h"
 #include "log.h"
 #include "points.h"
 #include "qmc/seq.h"
+
+/* HELLO: the highest version both sides speak (PROTOCOL.md section 4). */
+#define SERVER_VERSION_MIN 1u
+#define SERVER_VERSION_MAX QMC_PROTO_VERSION_MAX
 
 /* The smallest max_frame a client may announce (PROTOCOL.md section 4):
  * every answer but a POINTS_CHUNK then fits. */
@@ -33,10 +39,10 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "HELLO sent twice");
         return;
     }
-    if (h->version_min > QMC_PROTO_VERSION || h->version_max < QMC_PROTO_VERSION) {
+    if (h->version_min > SERVER_VERSION_MAX || h->version_max < SERVER_VERSION_MIN) {
         qmcd_conn_fail(c, m->request_id, QMC_ENOTSUP,
-                       "no common protocol version: client speaks %u..%u, server %u",
-                       h->version_min, h->version_max, QMC_PROTO_VERSION);
+                       "no common protocol version: client speaks %u..%u, server %u..%u",
+                       h->version_min, h->version_max, SERVER_VERSION_MIN, SERVER_VERSION_MAX);
         return;
     }
     if (h->max_frame < MIN_CLIENT_FRAME) {
@@ -50,7 +56,8 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     const qmcd_config *cfg = &c->srv->cfg;
     static const char server[] = "qmcd", engine[] = "libqmc 0.1.0";
     qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = m->request_id};
-    r.u.hello_ok.version = QMC_PROTO_VERSION;
+    r.u.hello_ok.version =
+        (uint16_t)(h->version_max < SERVER_VERSION_MAX ? h->version_max : SERVER_VERSION_MAX);
     r.u.hello_ok.max_frame = (uint32_t)cfg->max_frame;
     c->server_max_frame = (uint32_t)cfg->max_frame;
     r.u.hello_ok.max_inflight = (uint32_t)cfg->max_inflight;
@@ -86,10 +93,15 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
         record(c, t0);
 }
 
-void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     qmcd_server *srv = c->srv;
     srv->stats.requests[m->type & 31]++;
+    /* conn.c passes descriptors only with SHM_ATTACH; close any other. */
+    if (fd >= 0 && (m->type != QMC_MSG_SHM_ATTACH || !c->hello_done)) {
+        close(fd);
+        fd = -1;
+    }
     if (!c->hello_done && m->type != QMC_MSG_HELLO) {
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "the first frame must be HELLO, not %s",
                        qmc_msg_type_name(m->type));
@@ -110,6 +122,12 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         return;
     case QMC_MSG_JOB_CANCEL:
         qmcd_jobs_cancel(c, m, t0_us);
+        return;
+    case QMC_MSG_SHM_ATTACH:
+        qmcd_points_shm_attach(c, m, fd, t0_us);
+        return;
+    case QMC_MSG_SHM_RELEASE:
+        qmcd_points_shm_release(c, m);
         return;
     case QMC_MSG_POINTS:
     case QMC_MSG_INTEGRATE:

@@ -6,7 +6,10 @@
 
 #include "conn.h"
 
-/* Handles one decoded frame; t0_us is when it was decoded (latency). */
-void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
+/* Handles one decoded frame; t0_us is when it was decoded (latency).  fd
+ * is a descriptor that arrived with the frame (only SHM_ATTACH carries
+ * one), or -1; dispatch always takes it: the ring keeps it or it is
+ * closed. */
+void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us);
 
 #endif

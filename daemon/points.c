@@ -1,15 +1,28 @@
 /*
- * points.c - POINTS: validation, streaming under backpressure, and a cache
- * of sequence instances.
+ * points.c - POINTS: validation, streaming under backpressure, the
+ * shared-memory ring a Unix-socket client may attach, and a cache of
+ * sequence instances.
  *
- * A stream never runs ahead of its reader: a chunk is generated only when
- * the connection's output buffer has room for the whole frame plus the
- * reserve for small answers, and generation happens in place - the frame
- * prefix is encoded, then qmc_seq_fill writes the points straight into the
- * output buffer at a 64-byte aligned address.  So a reader that stops
- * costs at most out-buffer-bytes, and a PING on the same connection is
- * answered between two chunks (frames are never split).  Streams of one
- * connection take turns, one chunk each.
+ * A stream never runs ahead of its reader.  Inline (POINTS_CHUNK), a chunk
+ * is generated only when the connection's output buffer has room for the
+ * whole frame plus the reserve for small answers, and generation happens
+ * in place - the frame prefix is encoded, then qmc_seq_fill writes the
+ * points straight into the output buffer at a 64-byte aligned address.  So
+ * a reader that stops costs at most out-buffer-bytes, and a PING on the
+ * same connection is answered between two chunks (frames are never split).
+ *
+ * Through the ring (POINTS_SHM_CHUNK, PROTOCOL.md section 10), qmc_seq_fill
+ * writes into the next free slot of the client's memfd, mapped here, and
+ * only a 48-byte frame naming the slot is queued.  A slot is free again
+ * when SHM_RELEASE hands it back (oldest first), so the ring is the bound:
+ * a client that never releases stalls its own shm streams and nothing
+ * else, and costs no memory beyond its own ring.  The memfd must be sealed
+ * against shrinking (a truncated mapping would SIGBUS the daemon) and fully
+ * allocated by the client before it is attached (so its pages are charged
+ * to the client, not to us); both are checked at SHM_ATTACH.
+ *
+ * Streams of one connection take turns, one chunk each; a stream that
+ * cannot go on (no slot free, no output room) lets the others pass.
  *
  * Sequence instances are immutable and can be large (Sobol at 21201
  * dimensions is about 5 MB and takes milliseconds to build), so streams
@@ -18,14 +31,23 @@
  *
  * This file must not read sockets or decide connection policy (conn.c).
  */
+#define _GNU_SOURCE
 #include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <sys/vfs.h>
+#include <unistd.h>
 
 #include "log.h"
 #include "points.h"
 
 #define CACHE_IDLE 8
+/* statfs f_type of shmem (memfd_create, tmpfs): linux/magic.h. */
+#define SHMEM_MAGIC 0x01021994
 
 typedef struct seq_entry {
     struct seq_entry *next;
@@ -51,7 +73,21 @@ struct qmcd_stream {
     uint64_t points_sent, bytes_sent;
     size_t row_bytes;            /* dims * coordinate bytes */
     uint32_t chunk_points;       /* whole points per chunk */
+    int shm;                     /* 1: through the connection's ring */
     int64_t t0_us;
+};
+
+/* A client's ring: its memfd mapped shared, cut into equal slots that are
+ * filled in order 0, 1, ... slots - 1, 0, ... and handed back oldest first,
+ * so the free slots are always the `slots - held` after the held ones. */
+struct qmcd_ring {
+    uint8_t *base;
+    size_t bytes;                /* slots * slot_bytes */
+    uint32_t slots, slot_bytes;
+    uint32_t next;               /* the slot the next chunk goes to */
+    uint32_t held;               /* given to the client, not yet released */
+    uint32_t unsent;             /* chunks queued since the last flush hint */
+    int64_t full_ms;             /* when the last free slot was taken, or 0 */
 };
 
 int qmcd_seqcache_new(qmcd_seqcache **out)
@@ -181,7 +217,6 @@ static void cache_put(qmcd_seqcache *cache, seq_entry *e)
     cache_trim(cache);
 }
 
-/* The frame bytes before the point data of a POINTS_CHUNK. */
 /* The frame bytes before a chunk's data: fixed by the protocol, so
  * measured once (by encoding a dummy prefix) rather than per request. */
 static size_t chunk_prefix_bytes(void)
@@ -195,11 +230,24 @@ static size_t chunk_prefix_bytes(void)
     return bytes;
 }
 
+/* A POINTS_SHM_CHUNK frame: header and its fixed 24-byte payload. */
+#define SHM_CHUNK_FRAME_BYTES (QMC_PROTO_HEADER_BYTES + 24u)
+
 void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
     qmcd_server *srv = c->srv;
     const qmc_msg_points *p = &m->u.points;
+    const int shm = p->transport == QMC_TRANSPORT_SHM;
     char why[256] = "";
+    if (shm && !c->ring) {
+        if (c->unix_socket)
+            qmcd_conn_error(c, m->request_id, QMC_EINVAL,
+                            "POINTS transport 1 (shm) needs a ring: send SHM_ATTACH first");
+        else
+            qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
+                            "POINTS transport 1 (shm) needs a Unix-socket connection");
+        return;
+    }
     int err = qmc_seq_spec_check(&p->seq, why, sizeof why);
     if (err) {
         qmcd_conn_error(c, m->request_id, err, "%s", why[0] ? why : qmc_strerror(err));
@@ -214,13 +262,23 @@ void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     size_t coord = qmc_format_bytes(p->format);
     size_t row = (size_t)p->seq.dims * coord;
     size_t prefix = chunk_prefix_bytes();
-    size_t room = c->client_max_frame - (prefix - QMC_PROTO_HEADER_BYTES);
-    if (room > QMC_PROTO_CHUNK_BYTES)
-        room = QMC_PROTO_CHUNK_BYTES;
+    size_t room;
+    if (shm) {
+        room = c->ring->slot_bytes;
+    } else {
+        room = c->client_max_frame - (prefix - QMC_PROTO_HEADER_BYTES);
+        if (room > QMC_PROTO_CHUNK_BYTES)
+            room = QMC_PROTO_CHUNK_BYTES;
+    }
     if (coord == 0 || prefix == 0 || row > room) {
-        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
-                        "one point is %zu bytes, more than a chunk may carry under your "
-                        "max_frame (%zu bytes of data)", row, room);
+        if (shm)
+            qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                            "one point is %zu bytes, more than a ring slot holds (%zu bytes)",
+                            row, room);
+        else
+            qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                            "one point is %zu bytes, more than a chunk may carry under your "
+                            "max_frame (%zu bytes of data)", row, room);
         return;
     }
     seq_entry *e;
@@ -255,6 +313,7 @@ void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     s->end = p->start + p->count;
     s->row_bytes = row;
     s->chunk_points = (uint32_t)(room / row);
+    s->shm = shm;
     s->t0_us = t0_us;
     /* Appended last, so streams take turns in arrival order. */
     qmcd_stream **link = &c->streams;
@@ -279,6 +338,14 @@ int qmcd_points_has_request(const qmcd_conn *c, uint64_t request_id)
     return 0;
 }
 
+static void ring_free(qmcd_ring *r)
+{
+    if (!r)
+        return;
+    munmap(r->base, r->bytes);
+    free(r);
+}
+
 void qmcd_points_drop_all(qmcd_conn *c)
 {
     while (c->streams) {
@@ -286,6 +353,8 @@ void qmcd_points_drop_all(qmcd_conn *c)
         c->streams = s->next;
         stream_free(c, s);
     }
+    ring_free(c->ring);
+    c->ring = NULL;
 }
 
 /* The protocol is little-endian; qmc_seq_fill writes host order. */
@@ -316,45 +385,141 @@ static int send_end(qmcd_conn *c, qmcd_stream *s)
     return 0;
 }
 
-int qmcd_points_pump(qmcd_conn *c)
+static uint32_t next_chunk_points(const qmcd_stream *s)
 {
-    qmcd_stream *s = c->streams;
-    if (!s)
-        return 0;
-    if (s->next_index == s->end) {
-        if (send_end(c, s) != 0 || c->dead)
-            return 0;
-        c->streams = s->next;
-        stream_free(c, s);
-        return 1;
-    }
     uint64_t left = s->end - s->next_index;
-    uint32_t pts = left < s->chunk_points ? (uint32_t)left : s->chunk_points;
+    return left < s->chunk_points ? (uint32_t)left : s->chunk_points;
+}
+
+/* 1 when the stream's next chunk waits for a ring slot to come back. */
+static int waits_for_slot(const qmcd_conn *c, const qmcd_stream *s)
+{
+    return s->shm && s->next_index < s->end && c->ring->held == c->ring->slots;
+}
+
+/* 1 when the output buffer has room for the stream's next frame and the
+ * reserve for small answers. */
+static int has_room(const qmcd_conn *c, const qmcd_stream *s)
+{
+    size_t room = qmcd_conn_out_room(c);
+    if (s->next_index == s->end)
+        return room >= QMCD_OUT_RESERVE / 2; /* its END */
+    if (s->shm)
+        return room >= SHM_CHUNK_FRAME_BYTES + QMCD_OUT_RESERVE;
+    size_t frame = chunk_prefix_bytes() + (size_t)next_chunk_points(s) * s->row_bytes;
+    return room >= frame + QMCD_OUT_RESERVE;
+}
+
+/* Logs and answers a generation failure (a bug: the range was checked at
+ * the start, so this is not input). */
+static void fill_failed(qmcd_conn *c, const qmcd_stream *s, uint32_t pts, int err)
+{
+    qmcd_err("conn %llu: request %llu: generating points %llu..+%u failed: %s",
+             (unsigned long long)c->id, (unsigned long long)s->request_id,
+             (unsigned long long)s->next_index, pts, qmc_strerror(err));
+    qmcd_conn_error(c, s->request_id, err ? err : QMC_EINVAL, "generating points failed");
+}
+
+/* One POINTS_CHUNK, generated in place in the output buffer.  Returns 0,
+ * or -1 after an ERROR (the stream is over; the connection may be too). */
+static int produce_inline(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
+{
     size_t data = (size_t)pts * s->row_bytes;
     size_t prefix = chunk_prefix_bytes();
     size_t frame = prefix + data;
-    if (qmcd_conn_out_room(c) < frame + QMCD_OUT_RESERVE)
-        return 0;
     uint8_t *buf = qmcd_conn_out_reserve(c, frame, prefix);
     if (!buf)
-        return 0;
+        return 1; /* no memory for the buffer now: try again later */
     int n = qmc_proto_encode_chunk_prefix(s->request_id, s->next_index, pts, (uint32_t)data,
                                           buf, frame);
     int err = n < 0 ? n : qmc_seq_fill(s->seq->seq, s->next_index, pts, s->format, buf + n);
     if (err || (size_t)n != prefix) {
-        /* The range was checked at the start: this is a bug, not input. */
-        qmcd_err("conn %llu: request %llu: generating points %llu..+%u failed: %s",
-                 (unsigned long long)c->id, (unsigned long long)s->request_id,
-                 (unsigned long long)s->next_index, pts, qmc_strerror(err));
-        qmcd_conn_error(c, s->request_id, err ? err : QMC_EINVAL, "generating points failed");
-        if (c->dead) /* closing freed every stream, s too */
-            return 1;
-        c->streams = s->next;
-        stream_free(c, s);
-        return 1;
+        fill_failed(c, s, pts, err);
+        return -1;
     }
     to_little_endian(buf + n, data, qmc_format_bytes(s->format));
     qmcd_conn_out_commit(c, frame);
+    return 0;
+}
+
+/* One POINTS_SHM_CHUNK: the points go into the next free slot of the
+ * ring, the frame saying so into the output buffer.  Returns as
+ * produce_inline. */
+static int produce_shm(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
+{
+    qmcd_ring *r = c->ring;
+    size_t data = (size_t)pts * s->row_bytes;
+    uint32_t slot = r->next;
+    uint8_t *dst = r->base + (size_t)slot * r->slot_bytes;
+    int err = qmc_seq_fill(s->seq->seq, s->next_index, pts, s->format, dst);
+    if (err) {
+        fill_failed(c, s, pts, err);
+        return -1;
+    }
+    to_little_endian(dst, data, qmc_format_bytes(s->format));
+    qmc_msg m = {.type = QMC_MSG_POINTS_SHM_CHUNK, .request_id = s->request_id};
+    m.u.shm_chunk.first = s->next_index;
+    m.u.shm_chunk.points = pts;
+    m.u.shm_chunk.data_len = (uint32_t)data;
+    m.u.shm_chunk.slot = slot;
+    if (qmcd_conn_send(c, &m) != 0)
+        return -1; /* the connection is closed: r and s are gone */
+    r->next = slot + 1 == r->slots ? 0 : slot + 1;
+    if (++r->held == r->slots)
+        r->full_ms = qmcd_now_ms();
+    return 0;
+}
+
+/* Ring chunks go out in batches of half the ring (and whenever the ring
+ * is full, or the stream or the kick's turn ends): each send wakes a
+ * client that waits, and on a VM a wakeup costs as much as generating a
+ * few hundred KiB, so a send per chunk cost about a fifth of the rate
+ * (measured, 8 x 1 MiB); while the client handles one half, we fill the
+ * other. */
+static uint32_t shm_batch(const qmcd_ring *r)
+{
+    return r->slots / 2;
+}
+
+int qmcd_points_pump(qmcd_conn *c)
+{
+    /* The first stream in turn order that is not waiting for a ring slot
+     * (those wait for SHM_RELEASE and let the others pass); it goes when
+     * the output buffer has room, and until then the others wait too, so
+     * that a stream with big chunks is not starved by small ones. */
+    qmcd_stream **link = &c->streams;
+    while (*link && waits_for_slot(c, *link))
+        link = &(*link)->next;
+    qmcd_stream *s = *link;
+    if (!s || !has_room(c, s))
+        return 0;
+    if (s->next_index == s->end) {
+        if (send_end(c, s) != 0 || c->dead)
+            return 0;
+        *link = s->next;
+        stream_free(c, s);
+        return 1;
+    }
+    uint32_t pts = next_chunk_points(s);
+    int rc = s->shm ? produce_shm(c, s, pts) : produce_inline(c, s, pts);
+    if (rc > 0)
+        return 0;
+    if (rc < 0) {
+        if (c->dead) /* closing freed every stream, s too */
+            return 1;
+        *link = s->next;
+        stream_free(c, s);
+        return 1;
+    }
+    size_t data = (size_t)pts * s->row_bytes;
+    int produced = 1;
+    if (s->shm) {
+        qmcd_ring *r = c->ring;
+        if (r->held == r->slots || ++r->unsent >= shm_batch(r)) {
+            r->unsent = 0;
+            produced |= QMCD_PUMP_FLUSH;
+        }
+    }
     s->next_index += pts;
     s->points_sent += pts;
     s->bytes_sent += data;
@@ -364,21 +529,210 @@ int qmcd_points_pump(qmcd_conn *c)
     if (s->next_index == s->end) {
         int sent = send_end(c, s) == 0;
         if (c->dead) /* a failed send closed the connection and freed s */
-            return 1;
+            return produced;
         if (sent) {
-            c->streams = s->next;
+            *link = s->next;
             stream_free(c, s);
-            return 1;
+            return produced;
         }
     }
     /* Round robin: this stream goes to the back. */
     if (s->next) {
-        c->streams = s->next;
-        qmcd_stream *last = c->streams;
+        *link = s->next;
+        qmcd_stream *last = *link;
         while (last->next)
             last = last->next;
         last->next = s;
         s->next = NULL;
     }
-    return 1;
+    return produced;
+}
+
+int qmcd_points_want_output(const qmcd_conn *c)
+{
+    for (const qmcd_stream *s = c->streams; s; s = s->next)
+        if (!waits_for_slot(c, s))
+            return 1;
+    return 0;
+}
+
+int64_t qmcd_points_ring_stalled_ms(const qmcd_conn *c)
+{
+    if (!c->ring)
+        return 0;
+    for (const qmcd_stream *s = c->streams; s; s = s->next)
+        if (waits_for_slot(c, s))
+            return c->ring->full_ms;
+    return 0;
+}
+
+/* ---- SHM_ATTACH and SHM_RELEASE ---------------------------------------------- */
+
+/* The descriptor must be a memfd (a regular file on shmem: not hugetlbfs,
+ * whose faults can fail with SIGBUS, nor a disk file), sealed so that it
+ * cannot shrink under our mapping, writable, and as long as the ring.
+ * Returns 0 or an error code with the reason in why. */
+static int check_memfd(int fd, uint64_t bytes, char *why, size_t n)
+{
+    struct stat st;
+    struct statfs sf;
+    if (fstat(fd, &st) != 0 || fstatfs(fd, &sf) != 0) {
+        int e = -errno;
+        snprintf(why, n, "SHM_ATTACH: cannot inspect the descriptor: %s", qmc_strerror(e));
+        return e;
+    }
+    if (!S_ISREG(st.st_mode) || sf.f_type != SHMEM_MAGIC) {
+        snprintf(why, n, "SHM_ATTACH: the descriptor is not a memfd (memfd_create without "
+                         "MFD_HUGETLB)");
+        return QMC_EINVAL;
+    }
+    int seals = fcntl(fd, F_GET_SEALS);
+    if (seals < 0) {
+        snprintf(why, n, "SHM_ATTACH: the memfd has no seals (create it with "
+                         "MFD_ALLOW_SEALING and seal it with F_SEAL_SHRINK)");
+        return QMC_EINVAL;
+    }
+    if (!(seals & F_SEAL_SHRINK)) {
+        snprintf(why, n, "SHM_ATTACH: the memfd is not sealed with F_SEAL_SHRINK (the server "
+                         "maps it, and a file that may shrink under a mapping would crash it)");
+        return QMC_EINVAL;
+    }
+    int write_seals = F_SEAL_WRITE;
+#ifdef F_SEAL_FUTURE_WRITE
+    write_seals |= F_SEAL_FUTURE_WRITE;
+#endif
+    if (seals & write_seals) {
+        snprintf(why, n, "SHM_ATTACH: the memfd is sealed against writing");
+        return QMC_EINVAL;
+    }
+    if (st.st_size < 0 || (uint64_t)st.st_size < bytes) {
+        snprintf(why, n, "SHM_ATTACH: the memfd holds %lld bytes, less than the ring's %llu",
+                 (long long)st.st_size, (unsigned long long)bytes);
+        return QMC_EINVAL;
+    }
+    return 0;
+}
+
+/* Every page of the mapping must already be allocated (the client wrote
+ * it or called fallocate): we only write into pages the client paid for,
+ * and a ring with holes would be filled at the server's expense. */
+static int check_populated(uint8_t *base, size_t bytes, char *why, size_t n)
+{
+    long page = sysconf(_SC_PAGESIZE);
+    if (page <= 0)
+        page = 4096;
+    unsigned char vec[256];
+    const size_t window = sizeof vec * (size_t)page;
+    for (size_t off = 0; off < bytes; off += window) {
+        size_t len = bytes - off < window ? bytes - off : window;
+        if (mincore(base + off, len, vec) != 0) {
+            int e = -errno;
+            snprintf(why, n, "SHM_ATTACH: mincore: %s", qmc_strerror(e));
+            return e;
+        }
+        size_t pages = (len + (size_t)page - 1) / (size_t)page;
+        for (size_t i = 0; i < pages; i++)
+            if (!(vec[i] & 1)) {
+                snprintf(why, n, "SHM_ATTACH: the memfd is not populated (page at byte %zu "
+                                 "is not allocated): write it or fallocate it before "
+                                 "attaching", off + i * (size_t)page);
+                return QMC_EINVAL;
+            }
+    }
+    return 0;
+}
+
+void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
+{
+    const qmc_msg_shm *a = &m->u.shm;
+    const qmcd_config *cfg = &c->srv->cfg;
+    const uint64_t bytes = (uint64_t)a->slots * a->slot_bytes;
+    char why[256] = "";
+    int err = 0;
+    void *base = MAP_FAILED;
+    qmcd_ring *r = NULL;
+    if (!c->unix_socket) {
+        err = QMC_ENOTSUP;
+        snprintf(why, sizeof why, "SHM_ATTACH needs a Unix-socket connection (the memfd "
+                                  "travels with SCM_RIGHTS)");
+    } else if (cfg->max_shm_bytes == 0) {
+        err = QMC_ENOTSUP;
+        snprintf(why, sizeof why, "the shared-memory transport is off on this server "
+                                  "(max-shm-bytes = 0)");
+    } else if (c->ring) {
+        err = QMC_EINVAL;
+        snprintf(why, sizeof why, "SHM_ATTACH: a ring is already attached to this connection");
+    } else if (fd < 0) {
+        err = QMC_EINVAL;
+        snprintf(why, sizeof why, "SHM_ATTACH came without a file descriptor (send the memfd "
+                                  "with SCM_RIGHTS in the sendmsg that carries the frame)");
+    } else if (bytes > cfg->max_shm_bytes) {
+        err = QMC_ETOOBIG;
+        snprintf(why, sizeof why, "max-shm-bytes: a ring of %u x %u bytes exceeds the "
+                                  "%llu-byte limit", a->slots, a->slot_bytes,
+                 (unsigned long long)cfg->max_shm_bytes);
+    } else {
+        err = check_memfd(fd, bytes, why, sizeof why);
+    }
+    if (!err) {
+        base = mmap(NULL, (size_t)bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+        if (base == MAP_FAILED) {
+            err = -errno;
+            snprintf(why, sizeof why, "SHM_ATTACH: cannot map the memfd: %s",
+                     qmc_strerror(err));
+        }
+    }
+    if (!err)
+        err = check_populated(base, (size_t)bytes, why, sizeof why);
+    if (!err && !(r = calloc(1, sizeof *r))) {
+        err = QMC_ENOMEM;
+        snprintf(why, sizeof why, "out of memory");
+    }
+    if (fd >= 0)
+        close(fd); /* the mapping keeps the memory; the descriptor is not needed */
+    if (err) {
+        if (base != MAP_FAILED)
+            munmap(base, (size_t)bytes);
+        qmcd_conn_error(c, m->request_id, err, "%s", why);
+        return;
+    }
+#ifdef MADV_POPULATE_WRITE
+    /* Map every page now (they exist: checked above), so the first lap of
+     * the ring takes no page faults.  Only a speed-up: errors are fine. */
+    (void)madvise(base, (size_t)bytes, MADV_POPULATE_WRITE);
+#endif
+    r->base = base;
+    r->bytes = (size_t)bytes;
+    r->slots = a->slots;
+    r->slot_bytes = a->slot_bytes;
+    c->ring = r;
+    qmcd_debug("conn %llu: ring of %u x %u bytes attached", (unsigned long long)c->id,
+               a->slots, a->slot_bytes);
+    qmc_msg ok = {.type = QMC_MSG_SHM_OK, .request_id = m->request_id};
+    ok.u.shm = *a;
+    if (qmcd_conn_send(c, &ok) == 0)
+        qmcd_stats_latency(&c->srv->stats, qmcd_now_us() - t0_us);
+}
+
+void qmcd_points_shm_release(qmcd_conn *c, const qmc_msg *m)
+{
+    qmcd_ring *r = c->ring;
+    uint32_t n = m->u.release.slots;
+    if (m->request_id != 0) {
+        qmcd_conn_fail(c, m->request_id, QMC_EPROTO,
+                       "SHM_RELEASE must carry request id 0, not %llu",
+                       (unsigned long long)m->request_id);
+        return;
+    }
+    if (!r) {
+        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE without an attached ring");
+        return;
+    }
+    if (n > r->held) {
+        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE of %u slots, but the client holds only %u",
+                       n, r->held);
+        return;
+    }
+    r->held -= n;
+    r->full_ms = 0;
 }

@@ -70,6 +70,12 @@ static int strategy_ok(uint32_t v)
     }
 }
 
+/* qmc_points_transport: 0 inline, 1 the shared-memory ring. */
+static int transport_ok(uint32_t v)
+{
+    return v == QMC_TRANSPORT_INLINE || v == QMC_TRANSPORT_SHM;
+}
+
 static int job_state_ok(uint32_t v)
 {
     switch (v) {
@@ -148,7 +154,10 @@ enum {
     FIXED_RESULT = 160,
     FIXED_STATS = 4,
     STAT_MIN = STR16 + 8,
-    FIXED_ERROR = 4
+    FIXED_ERROR = 4,
+    FIXED_SHM = 16,
+    FIXED_SHM_CHUNK = 24,
+    FIXED_SHM_RELEASE = 4
 };
 
 static void io_hello(qmc__io *io, qmc_msg *m)
@@ -190,7 +199,7 @@ static void io_points(qmc__io *io, qmc_msg *m)
     IO_ENUM(io, p->seq.kind, seq_kind_ok);
     IO_ENUM(io, p->seq.scramble, scramble_ok);
     IO_ENUM(io, p->format, format_ok);
-    qmc__io_zero(io, 1);
+    IO_ENUM(io, p->transport, transport_ok);
     qmc__io_u32(io, &p->seq.dims);
     io_flags(io, &p->seq.flags, SEQ_FLAGS_KNOWN);
     qmc__io_zero(io, 4);
@@ -200,16 +209,21 @@ static void io_points(qmc__io *io, qmc_msg *m)
     qmc__io_u64(io, &p->count);
 }
 
+/* Whole points of whole 4- or 8-byte coordinates: at least one point,
+ * the data a multiple of the point count and of 4 bytes, at most max. */
+static int whole_points(uint32_t points, uint32_t data_len, uint32_t max)
+{
+    return data_len <= max && points != 0 && data_len % 4 == 0 && data_len % points == 0 &&
+           data_len / points >= 4;
+}
+
 static void io_chunk(qmc__io *io, qmc_msg *m)
 {
     qmc_msg_points_chunk *c = &m->u.chunk;
     qmc__io_u64(io, &c->first);
     qmc__io_u32(io, &c->points);
     qmc__io_u32(io, &c->data_len);
-    /* Whole points of whole 4- or 8-byte coordinates: at least one point,
-     * the data a multiple of the point count and of 4 bytes. */
-    if (c->data_len > QMC_PROTO_CHUNK_BYTES || c->points == 0 || c->data_len % 4 ||
-        c->data_len % c->points || c->data_len / c->points < 4) {
+    if (!whole_points(c->points, c->data_len, QMC_PROTO_CHUNK_BYTES)) {
         qmc__io_invalid(io);
         return;
     }
@@ -386,6 +400,41 @@ static void io_error(qmc__io *io, qmc_msg *m)
     qmc__io_str(io, &m->u.error.message, QMC_PROTO_MAX_MESSAGE, QMC__STR_TEXT);
 }
 
+/* SHM_ATTACH and SHM_OK: the ring's geometry, then 8 reserved bytes. */
+static void io_shm(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_shm *r = &m->u.shm;
+    qmc__io_u32(io, &r->slots);
+    qmc__io_u32(io, &r->slot_bytes);
+    qmc__io_zero(io, 8);
+    if (r->slots < QMC_PROTO_SHM_MIN_SLOTS || r->slots > QMC_PROTO_SHM_MAX_SLOTS ||
+        r->slot_bytes < QMC_PROTO_SHM_MIN_SLOT_BYTES ||
+        r->slot_bytes > QMC_PROTO_SHM_MAX_SLOT_BYTES ||
+        r->slot_bytes % QMC_PROTO_SHM_SLOT_ALIGN != 0)
+        qmc__io_invalid(io);
+}
+
+/* POINTS_SHM_CHUNK: where the points are; the data stays in the ring. */
+static void io_shm_chunk(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_shm_chunk *c = &m->u.shm_chunk;
+    qmc__io_u64(io, &c->first);
+    qmc__io_u32(io, &c->points);
+    qmc__io_u32(io, &c->data_len);
+    qmc__io_u32(io, &c->slot);
+    qmc__io_zero(io, 4);
+    if (!whole_points(c->points, c->data_len, QMC_PROTO_SHM_MAX_SLOT_BYTES) ||
+        c->slot >= QMC_PROTO_SHM_MAX_SLOTS)
+        qmc__io_invalid(io);
+}
+
+static void io_shm_release(qmc__io *io, qmc_msg *m)
+{
+    qmc__io_u32(io, &m->u.release.slots);
+    if (m->u.release.slots == 0 || m->u.release.slots > QMC_PROTO_SHM_MAX_SLOTS)
+        qmc__io_invalid(io);
+}
+
 /* ---- the table ---------------------------------------------------------------
  * Which layout each message uses, and its payload bounds.  Every name in
  * QMC_MSG_MAP needs a LAYOUT_ line: a missing one fails to compile. */
@@ -413,6 +462,10 @@ static void io_error(qmc__io *io, qmc_msg *m)
 #define LAYOUT_STATS_REPLY \
     io_stats_reply, FIXED_STATS, FIXED_STATS + QMC_PROTO_MAX_STATS * (STAT_MIN + QMC_PROTO_MAX_NAME)
 #define LAYOUT_ERROR io_error, FIXED_ERROR + STR16, FIXED_ERROR + STR16 + QMC_PROTO_MAX_MESSAGE
+#define LAYOUT_SHM_ATTACH io_shm, FIXED_SHM, FIXED_SHM
+#define LAYOUT_SHM_OK LAYOUT_SHM_ATTACH
+#define LAYOUT_POINTS_SHM_CHUNK io_shm_chunk, FIXED_SHM_CHUNK, FIXED_SHM_CHUNK
+#define LAYOUT_SHM_RELEASE io_shm_release, FIXED_SHM_RELEASE, FIXED_SHM_RELEASE
 
 #define ROW_FIELDS(fn, lo, hi) (lo), (hi), fn
 #define ROW_EXPAND(...) ROW_FIELDS(__VA_ARGS__)

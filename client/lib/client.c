@@ -2,8 +2,9 @@
  * client.c - connecting (endpoint, HELLO handshake), the server's
  * identity and limits, PING and STATS, closing.
  *
- * Must not: allocate more than the one block made at connect, print, or
- * keep a connection whose handshake failed.
+ * Must not: allocate more than the one block made at connect (the ring's
+ * mapping, shm.c, is the only other memory a client holds), print, or keep
+ * a connection whose handshake failed.
  */
 #include <errno.h>
 #include <stdint.h>
@@ -28,8 +29,8 @@ static int hello(qmc_client *c)
     qmc_msg m;
     memset(&m, 0, sizeof m);
     m.type = QMC_MSG_HELLO;
-    m.u.hello.version_min = QMC_PROTO_VERSION;
-    m.u.hello.version_max = QMC_PROTO_VERSION;
+    m.u.hello.version_min = 1;
+    m.u.hello.version_max = QMC_PROTO_VERSION_MAX;
     m.u.hello.max_frame = QMC_CLIENT_MAX_FRAME;
     m.u.hello.client.ptr = CLIENT_NAME;
     m.u.hello.client.len = (uint32_t)strlen(CLIENT_NAME);
@@ -56,10 +57,11 @@ static int hello(qmc_client *c)
         return qmc__client_break(c, QMC_EPROTO, "handshake failed: %s instead of HELLO_OK",
                                  qmc_msg_type_name(m.type));
     const qmc_msg_hello_ok *h = &m.u.hello_ok;
-    if (h->version != QMC_PROTO_VERSION)
+    if (h->version < 1 || h->version > QMC_PROTO_VERSION_MAX)
         return qmc__client_break(c, QMC_EPROTO, "handshake failed: the server chose "
-                                 "protocol version %u; we speak %u", h->version,
-                                 QMC_PROTO_VERSION);
+                                 "protocol version %u; we speak 1..%u", h->version,
+                                 QMC_PROTO_VERSION_MAX);
+    c->version = h->version;
     if (h->max_frame < 64)
         return qmc__client_break(c, QMC_EPROTO, "handshake failed: the server accepts "
                                  "frames of only %u bytes", h->max_frame);
@@ -106,6 +108,7 @@ int qmc__client_connect_with(const char *endpoint, int timeout_ms,
     if (fd < 0)
         return fd;
     c->fd = fd;
+    c->unix_socket = ep.kind == QMC__EP_UNIX;
     err = hello(c);
     if (err == 0)
         c->message[0] = '\0';
@@ -123,6 +126,7 @@ void qmc_client_close(qmc_client *c)
         return;
     if (c->fd >= 0)
         close(c->fd);
+    qmc__client_shm_unmap(c);
     free(c);
 }
 

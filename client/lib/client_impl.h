@@ -3,8 +3,8 @@
  *
  * endpoint.c parses endpoints and opens sockets; conn.c moves frames
  * (bounded buffers, deadlines, error text); client.c is the handshake,
- * ping, stats and accessors; points.c the POINTS stream; jobs.c the
- * INTEGRATE family.  Cross-file names are qmc__client_*; nothing here is
+ * ping, stats and accessors; points.c the POINTS stream; shm.c the
+ * shared-memory ring; jobs.c the INTEGRATE family.  Cross-file names are qmc__client_*; nothing here is
  * public API, but the unit test includes it to reach the parser and the
  * allocator seam.
  */
@@ -61,8 +61,25 @@ typedef struct qmc__client_job {
     char message[QMC_PROTO_MAX_MESSAGE + 1];
 } qmc__client_job;
 
+/* The shared-memory ring (shm.c): slots are filled by the server in order
+ * and released by us oldest first, so `next` and a count say it all. */
+typedef struct qmc__client_ring {
+    uint8_t *base;                    /* the mapping, NULL when none */
+    size_t bytes;
+    uint32_t slots, slot_bytes;
+    uint32_t next;                    /* the slot the next chunk must name */
+    uint32_t held;                    /* chunks received, not yet released */
+} qmc__client_ring;
+
+/* The ring qmc_client_points* attach by themselves on a Unix socket: 8
+ * slots of one chunk's size (a chunk is never larger than inline; the
+ * server sends half a ring at a time, so 8 lets it fill 4 while we read 4). */
+#define QMC__CLIENT_AUTO_SLOTS 8u
+#define QMC__CLIENT_AUTO_SLOT_BYTES QMC_PROTO_CHUNK_BYTES
+
 struct qmc_client {
     int fd;                           /* -1 when not connected */
+    int unix_socket;                  /* connected to a unix: endpoint */
     int timeout_ms;                   /* > 0, or -1 */
     uint64_t next_request_id;
     char message[QMC_CLIENT_MESSAGE_BYTES];
@@ -72,6 +89,10 @@ struct qmc_client {
     uint64_t sobol_table_hash;
     uint32_t max_frame, max_inflight;
     uint64_t max_points;
+    uint16_t version;                 /* the protocol version HELLO_OK chose */
+    /* the ring; shm_off: attach no more (refused, failed, or turned off) */
+    qmc__client_ring ring;
+    int shm_off;
     /* receive buffer: bytes [rpos, rlen) are unread */
     uint8_t *rbuf;
     size_t rcap, rpos, rlen;
@@ -119,6 +140,11 @@ int qmc__client_ready(qmc_client *c);
 /* Encodes msg (request_id set here, returned in *request_id) and sends it
  * whole before the deadline. */
 int qmc__client_send(qmc_client *c, qmc_msg *msg, uint64_t *request_id);
+/* Encodes msg as it is (its request_id included) and sends it whole; with
+ * pass_fd >= 0 the descriptor goes with the frame's first byte
+ * (SCM_RIGHTS, in the same sendmsg).  Errors close the connection, except
+ * an encoding error. */
+int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd);
 /* Reads the next frame into *msg (views into the receive buffer, valid
  * until the next read).  Errors close the connection, except -ETIMEDOUT
  * when keep_on_timeout is set. */
@@ -131,6 +157,19 @@ int qmc__client_other(qmc_client *c, const qmc_msg *msg, uint64_t waiting_for);
  * jobs are filed on the way (qmc__client_file_job).  Same errors. */
 int qmc__client_await(qmc_client *c, uint64_t request_id, int64_t deadline_ms,
                       int keep_on_timeout, qmc_msg *msg);
+
+/* ---- shm.c ---------------------------------------------------------------------- */
+
+/* Sends SHM_RELEASE for every slot held (nothing when none).  Returns 0 or
+ * a send error (the connection is then closed). */
+int qmc__client_shm_release(qmc_client *c);
+/* Attaches the automatic ring if this client should and can: a Unix
+ * socket, a version-2 server, not attached, not turned off.  A refusal or
+ * a local failure turns it off for this client and returns 0 (the points
+ * then travel inline); only a broken connection is an error. */
+int qmc__client_shm_auto(qmc_client *c);
+/* Unmaps the ring (the connection is gone). */
+void qmc__client_shm_unmap(qmc_client *c);
 
 /* ---- jobs.c --------------------------------------------------------------------- */
 

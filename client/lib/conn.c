@@ -6,8 +6,11 @@
  * payload announced in HELLO); the codec rejects a longer payload_len from
  * the header alone, so a hostile peer cannot make us buffer more.  Frames
  * are decoded in place and handed out as views; the bytes are reclaimed at
- * the next read.  Must not: block past a deadline, raise SIGPIPE, print,
- * or keep reading a stream after it went wrong (errors close it).
+ * the next read.  Ring slots (shm.c) are handed back the same way: when a
+ * read finds no whole frame left in the buffer, every chunk it handed out
+ * has been handled, so one SHM_RELEASE returns them all before we wait.
+ * Must not: block past a deadline, raise SIGPIPE, print, or keep reading a
+ * stream after it went wrong (errors close it).
  */
 #include <errno.h>
 #include <poll.h>
@@ -15,6 +18,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -58,6 +62,7 @@ int qmc__client_break(qmc_client *c, int err, const char *fmt, ...)
         close(c->fd);
     c->fd = -1;
     c->rpos = c->rlen = 0;
+    qmc__client_shm_unmap(c);
     return err;
 }
 
@@ -120,6 +125,34 @@ int qmc__client_send(qmc_client *c, qmc_msg *msg, uint64_t *request_id)
     msg->request_id = c->next_request_id++;
     if (request_id)
         *request_id = msg->request_id;
+    return qmc__client_send_frame(c, msg, -1);
+}
+
+/* One sendmsg carrying pass_fd beside the first bytes of buf. */
+static ssize_t send_with_fd(int fd, const uint8_t *buf, size_t n, int pass_fd)
+{
+    union {
+        struct cmsghdr align;
+        char bytes[CMSG_SPACE(sizeof(int))];
+    } ctl;
+    memset(&ctl, 0, sizeof ctl);
+    struct iovec iov = {(void *)(uintptr_t)buf, n};
+    struct msghdr mh;
+    memset(&mh, 0, sizeof mh);
+    mh.msg_iov = &iov;
+    mh.msg_iovlen = 1;
+    mh.msg_control = ctl.bytes;
+    mh.msg_controllen = sizeof ctl.bytes;
+    struct cmsghdr *cm = CMSG_FIRSTHDR(&mh);
+    cm->cmsg_level = SOL_SOCKET;
+    cm->cmsg_type = SCM_RIGHTS;
+    cm->cmsg_len = CMSG_LEN(sizeof(int));
+    memcpy(CMSG_DATA(cm), &pass_fd, sizeof pass_fd);
+    return sendmsg(fd, &mh, MSG_NOSIGNAL);
+}
+
+int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd)
+{
     size_t need = qmc_proto_encoded_size(msg);
     if (need == 0)
         return qmc__client_fail(c, QMC_EINVAL, "%s: a field is past its protocol limit",
@@ -135,7 +168,11 @@ int qmc__client_send(qmc_client *c, qmc_msg *msg, uint64_t *request_id)
     const int64_t deadline = qmc__client_deadline(c);
     size_t done = 0;
     while (done < (size_t)n) {
-        ssize_t w = send(c->fd, c->sbuf + done, (size_t)n - done, MSG_NOSIGNAL);
+        /* The descriptor rides with the first byte; if only part of the
+         * frame goes, the rest follows without it. */
+        ssize_t w = pass_fd >= 0 && done == 0
+                        ? send_with_fd(c->fd, c->sbuf, (size_t)n, pass_fd)
+                        : send(c->fd, c->sbuf + done, (size_t)n - done, MSG_NOSIGNAL);
         if (w > 0) {
             done += (size_t)w;
             continue;
@@ -201,7 +238,12 @@ int qmc__client_read(qmc_client *c, int64_t deadline_ms, int keep_on_timeout,
         if (n != QMC_EAGAIN)
             return qmc__client_break(c, QMC_EPROTO, "protocol error: malformed frame "
                                      "from the server (%s)", qmc_strerror(n));
-        int err = fill(c, deadline_ms);
+        /* Nothing whole left to hand out: the chunks handed out so far are
+         * handled, and their slots go back before we wait for more. */
+        int err = qmc__client_shm_release(c);
+        if (err)
+            return err;
+        err = fill(c, deadline_ms);
         if (err == -ETIMEDOUT && keep_on_timeout)
             return qmc__client_fail(c, err, "no answer from the server within %d ms",
                                     c->timeout_ms);

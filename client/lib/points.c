@@ -1,11 +1,15 @@
 /*
- * points.c - POINTS requests: the stream of POINTS_CHUNK frames and its
- * END, checked chunk by chunk.
+ * points.c - POINTS requests: the stream of POINTS_CHUNK frames (or, with
+ * a ring attached, POINTS_SHM_CHUNK frames naming ring slots) and its END,
+ * checked chunk by chunk.
  *
  * A chunk must start where the previous one ended, hold a whole number of
- * points, and not run past the request; END must count what arrived.
- * Anything else is a protocol error and closes the connection.  Must not:
- * hold more than one chunk (the receive buffer's), or print.
+ * points, and not run past the request; a ring chunk must name the slot
+ * that comes next and fit in it; END must count what arrived.  Anything
+ * else is a protocol error and closes the connection.  On a Unix socket a
+ * request of more than one chunk first attaches a ring (shm.c) if none is
+ * and the server takes it.  Must not: hold more than one chunk (the
+ * receive buffer's, or the ring's slots), or print.
  */
 #include <errno.h>
 #include <string.h>
@@ -27,11 +31,17 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
     /* dims is checked by the server; here it only sizes rows, and
      * dims x 8 cannot overflow 64 bits. */
     const uint64_t row_bytes = (uint64_t)spec->dims * value_bytes;
+    /* More than one chunk's worth: worth a ring, if there is none yet. */
+    if (count > QMC__CLIENT_AUTO_SLOT_BYTES / (row_bytes ? row_bytes : 1) &&
+        (err = qmc__client_shm_auto(c)) != 0)
+        return err;
+    const int shm = c->ring.base != NULL && row_bytes <= c->ring.slot_bytes;
     qmc_msg m;
     memset(&m, 0, sizeof m);
     m.type = QMC_MSG_POINTS;
     m.u.points.seq = *spec;
     m.u.points.format = fmt;
+    m.u.points.transport = shm ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
     m.u.points.start = start;
     m.u.points.count = count;
     uint64_t id;
@@ -44,8 +54,12 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
         err = qmc__client_await(c, id, qmc__client_deadline(c), 0, &m);
         if (err)
             return err;
-        if (m.type == QMC_MSG_ERROR)
+        if (m.type == QMC_MSG_ERROR) {
+            /* Slots of chunks already handled go back first. */
+            if ((err = qmc__client_shm_release(c)) != 0)
+                return err;
             return qmc__client_server_error(c, &m);
+        }
         if (m.type == QMC_MSG_END) {
             if (m.u.end.points != got || got != count || m.u.end.bytes != bytes)
                 return qmc__client_break(c, QMC_EPROTO, "protocol error: END says %llu "
@@ -55,27 +69,52 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
                                          (unsigned long long)m.u.end.bytes,
                                          (unsigned long long)got, (unsigned long long)count,
                                          (unsigned long long)bytes);
+            if ((err = qmc__client_shm_release(c)) != 0)
+                return err;
             c->message[0] = '\0';
             return 0;
         }
-        if (m.type != QMC_MSG_POINTS_CHUNK)
+        uint64_t first;
+        uint32_t points, data_len;
+        const uint8_t *data;
+        if (m.type == QMC_MSG_POINTS_CHUNK && !shm) {
+            first = m.u.chunk.first;
+            points = m.u.chunk.points;
+            data_len = m.u.chunk.data_len;
+            data = m.u.chunk.data;
+        } else if (m.type == QMC_MSG_POINTS_SHM_CHUNK && shm) {
+            const qmc_msg_shm_chunk *sc = &m.u.shm_chunk;
+            qmc__client_ring *ring = &c->ring;
+            if (sc->slot != ring->next || sc->data_len > ring->slot_bytes ||
+                ring->held >= ring->slots)
+                return qmc__client_break(c, QMC_EPROTO, "protocol error: a chunk of %u bytes "
+                                         "in ring slot %u; expected slot %u, at most %u "
+                                         "bytes, with %u of %u slots held", sc->data_len,
+                                         sc->slot, ring->next, ring->slot_bytes, ring->held,
+                                         ring->slots);
+            ring->next = sc->slot + 1 == ring->slots ? 0 : sc->slot + 1;
+            ring->held++; /* released once handled: see conn.c */
+            first = sc->first;
+            points = sc->points;
+            data_len = sc->data_len;
+            data = ring->base + (size_t)sc->slot * ring->slot_bytes;
+        } else {
             return qmc__client_break(c, QMC_EPROTO, "protocol error: %s in a points "
-                                     "stream", qmc_msg_type_name(m.type));
-        const qmc_msg_points_chunk *ch = &m.u.chunk;
-        if (ch->first != start + got || ch->points == 0 || ch->points > count - got ||
-            row_bytes == 0 || ch->data_len % row_bytes != 0 ||
-            ch->data_len / row_bytes != ch->points)
+                                     "stream (%s transport)", qmc_msg_type_name(m.type),
+                                     shm ? "shm" : "inline");
+        }
+        if (first != start + got || points == 0 || points > count - got ||
+            row_bytes == 0 || data_len % row_bytes != 0 || data_len / row_bytes != points)
             return qmc__client_break(c, QMC_EPROTO, "protocol error: chunk of %u points "
                                      "(%u bytes) at index %llu; expected index %llu, "
                                      "%llu bytes a point, at most %llu points",
-                                     ch->points, ch->data_len,
-                                     (unsigned long long)ch->first,
+                                     points, data_len, (unsigned long long)first,
                                      (unsigned long long)(start + got),
                                      (unsigned long long)row_bytes,
                                      (unsigned long long)(count - got));
-        got += ch->points;
-        bytes += ch->data_len;
-        int r = on_chunk(ctx, ch->first, ch->points, ch->data, ch->data_len);
+        got += points;
+        bytes += data_len;
+        int r = on_chunk(ctx, first, points, data, data_len);
         if (r)
             return qmc__client_break(c, r, "points: the stream was stopped at index %llu; "
                                      "the connection is closed",

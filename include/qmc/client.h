@@ -27,7 +27,23 @@
  * Memory: a client makes one allocation, at connect, holding its send
  * buffer, its receive buffer (QMC_CLIENT_MAX_FRAME plus a header: the
  * largest frame it accepts, announced in HELLO) and a table of up to
- * QMC_CLIENT_MAX_JOBS unfinished jobs.  Nothing else grows.
+ * QMC_CLIENT_MAX_JOBS unfinished jobs.  Nothing else grows.  On a unix:
+ * endpoint a shared-memory ring for POINTS data may be mapped besides
+ * (qmc_client_attach_shm; 8 MiB when attached automatically), until the
+ * client is closed or its connection fails.
+ *
+ * Shared memory: over a Unix socket to a server that speaks protocol
+ * version 2, the points of a POINTS request can travel through a ring of
+ * slots in a memfd the client shares with the server (PROTOCOL.md section
+ * 10) instead of through the socket: the server writes each chunk straight
+ * into a slot, so the data is never copied through the kernel.  The first
+ * qmc_client_points or qmc_client_points_stream call that asks for more
+ * than one chunk (QMC_PROTO_CHUNK_BYTES) attaches a ring of 8 slots of
+ * QMC_PROTO_CHUNK_BYTES by itself; if the server refuses (TCP, an older
+ * server, its max-shm-bytes) or the system cannot (no memfd_create), the
+ * points simply come inline, as they always do over TCP.  Once a ring is
+ * attached every POINTS request on the client uses it (whose points fit a
+ * slot).  The output is the same bytes either way.
  *
  * Threads: a qmc_client is not thread-safe: use each from one thread at a
  * time (one per thread is simplest).  Different clients share nothing and
@@ -114,12 +130,15 @@ uint64_t qmc_client_max_points(const qmc_client *c);   /* per POINTS request */
 QMC_MUST_CHECK int qmc_client_ping(qmc_client *c, double *rtt_seconds);
 
 /*
- * Called once per POINTS_CHUNK, in index order: `points` points starting
- * at index `first`, data = points x dims values of the format, row-major,
- * little-endian, not necessarily aligned.  data is valid only during the
- * call.  Return 0 to go on; any other value stops the stream, is returned
- * by qmc_client_points_stream, and closes the connection (the protocol has
- * no way to stop a stream halfway).
+ * Called once per chunk, in index order: `points` points starting at index
+ * `first`, data = points x dims values of the format, row-major,
+ * little-endian, not necessarily aligned; bytes is at most
+ * QMC_PROTO_CHUNK_BYTES, or the ring's slot size when a ring with larger
+ * slots was attached (qmc_client_attach_shm).  data (in the receive buffer,
+ * or in a ring slot) is valid only during the call: the slot goes back to
+ * the server after it.  Return 0 to go on; any other value stops the
+ * stream, is returned by qmc_client_points_stream, and closes the
+ * connection (the protocol has no way to stop a stream halfway).
  */
 typedef int (*qmc_client_chunk_fn)(void *ctx, uint64_t first, uint32_t points,
                                    const void *data, size_t bytes);
@@ -145,6 +164,31 @@ QMC_MUST_CHECK int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *s
 QMC_MUST_CHECK int qmc_client_points(qmc_client *c, const qmc_seq_spec *spec,
                                      uint64_t start, uint64_t count, qmc_format fmt,
                                      void *out, size_t out_bytes);
+
+/*
+ * Attaches a shared-memory ring of `slots` slots of `slot_bytes` bytes to
+ * this connection for POINTS data (see "Shared memory" above): a sealed,
+ * fully allocated memfd, mapped here and passed to the server, which must
+ * answer SHM_OK.  slots in QMC_PROTO_SHM_MIN_SLOTS..QMC_PROTO_SHM_MAX_SLOTS,
+ * slot_bytes a multiple of QMC_PROTO_SHM_SLOT_ALIGN in
+ * QMC_PROTO_SHM_MIN_SLOT_BYTES..QMC_PROTO_SHM_MAX_SLOT_BYTES; more slots
+ * let the server run further ahead of a slow callback.  slots = 0 attaches
+ * nothing and turns the automatic ring off for this client (its points
+ * then always come inline).  A connection keeps its ring until it closes.
+ *
+ * Returns 0; QMC_EINVAL (bad sizes, a ring already attached); QMC_ENOTSUP
+ * (a tcp: endpoint, a server older than protocol version 2); -errno from
+ * memfd_create, fallocate or mmap; or the server's ERROR code (QMC_ENOTSUP
+ * when it has shared memory turned off, QMC_ETOOBIG over its max-shm-bytes,
+ * ...).  All of these leave the connection usable, the points inline; an
+ * I/O error or a timeout closes it, as for any call.
+ */
+QMC_MUST_CHECK int qmc_client_attach_shm(qmc_client *c, uint32_t slots,
+                                         uint32_t slot_bytes);
+
+/* The attached ring's slots and slot size; 0 when none is attached. */
+uint32_t qmc_client_shm_slots(const qmc_client *c);
+uint32_t qmc_client_shm_slot_bytes(const qmc_client *c);
 
 /*
  * Runs a job and waits for its result (qmc_client_submit then

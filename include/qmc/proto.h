@@ -24,6 +24,11 @@
  * Encoding: qmc_proto_encode(&msg, buf, cap) writes one frame and returns
  * its length, or QMC_ETOOBIG when cap is too small (nothing useful is
  * written then).  Encoders never send.
+ *
+ * The shared-memory transport (protocol version 2: SHM_ATTACH, SHM_OK,
+ * POINTS_SHM_CHUNK, SHM_RELEASE) passes a file descriptor beside a frame;
+ * the descriptor is the sender's and receiver's business (sendmsg and
+ * recvmsg with SCM_RIGHTS), never the codec's: it only sees the frames.
  */
 #ifndef QMC_PROTO_H
 #define QMC_PROTO_H
@@ -41,7 +46,13 @@ extern "C" {
 #endif
 
 #define QMC_PROTO_MAGIC 0x44434d51u   /* "QMCD" read as a little-endian u32 */
+/* The frame format (the header's version byte): always 1. */
 #define QMC_PROTO_VERSION 1u
+/* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
+ * the frame format): 1 is the base set; 2 adds the shared-memory transport
+ * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
+#define QMC_PROTO_VERSION_MAX 2u
+#define QMC_PROTO_VERSION_SHM 2u
 #define QMC_PROTO_HEADER_BYTES 24u
 /* No frame is ever larger than this, whatever is negotiated. */
 #define QMC_PROTO_MAX_PAYLOAD (16u << 20)
@@ -53,6 +64,13 @@ extern "C" {
 #define QMC_PROTO_MAX_PING 256u
 #define QMC_PROTO_MAX_LIST 1024u      /* a, u parameter lists */
 #define QMC_PROTO_MAX_STATS 256u      /* entries in a STATS_REPLY */
+/* The shared-memory ring of SHM_ATTACH: slots, and bytes per slot (whole
+ * pages, so every slot starts page-aligned in the mapping). */
+#define QMC_PROTO_SHM_MIN_SLOTS 2u
+#define QMC_PROTO_SHM_MAX_SLOTS 64u
+#define QMC_PROTO_SHM_MIN_SLOT_BYTES (64u << 10)
+#define QMC_PROTO_SHM_MAX_SLOT_BYTES (4u << 20)
+#define QMC_PROTO_SHM_SLOT_ALIGN 4096u
 
 /* Messages: X(name, type code, sent by: 'C' client or 'S' server). */
 #define QMC_MSG_MAP(X)             \
@@ -72,7 +90,11 @@ extern "C" {
     X(JOB_CANCEL, 14, 'C')         \
     X(STATS, 15, 'C')              \
     X(STATS_REPLY, 16, 'S')        \
-    X(ERROR, 17, 'S')
+    X(ERROR, 17, 'S')              \
+    X(SHM_ATTACH, 18, 'C')         \
+    X(SHM_OK, 19, 'S')             \
+    X(POINTS_SHM_CHUNK, 20, 'S')   \
+    X(SHM_RELEASE, 21, 'C')
 
 typedef enum qmc_msg_type {
 #define QMC__MSG_ENUM(name, code, dir) QMC_MSG_##name = (code),
@@ -114,9 +136,17 @@ typedef struct qmc_msg_ping {
     qmc_str data;             /* echoed by PONG; <= QMC_PROTO_MAX_PING */
 } qmc_msg_ping;
 
+/* How POINTS data travels (POINTS offset 3): in POINTS_CHUNK frames, or
+ * through the connection's shared-memory ring (POINTS_SHM_CHUNK). */
+typedef enum qmc_points_transport {
+    QMC_TRANSPORT_INLINE = 0,
+    QMC_TRANSPORT_SHM = 1
+} qmc_points_transport;
+
 typedef struct qmc_msg_points {
     qmc_seq_spec seq;
     qmc_format format;
+    qmc_points_transport transport;
     uint64_t start, count;
 } qmc_msg_points;
 
@@ -126,6 +156,27 @@ typedef struct qmc_msg_points_chunk {
     const uint8_t *data;      /* points * dims * format bytes, row-major LE */
     uint32_t data_len;
 } qmc_msg_points_chunk;
+
+/* SHM_ATTACH (the ring the client offers; the memfd travels beside the
+ * frame) and SHM_OK (the same values, accepted). */
+typedef struct qmc_msg_shm {
+    uint32_t slots;           /* QMC_PROTO_SHM_MIN_SLOTS .. _MAX_SLOTS */
+    uint32_t slot_bytes;      /* a multiple of QMC_PROTO_SHM_SLOT_ALIGN in
+                                 [QMC_PROTO_SHM_MIN_SLOT_BYTES, _MAX_SLOT_BYTES] */
+} qmc_msg_shm;
+
+/* POINTS_SHM_CHUNK: the data is in the ring, at slot * slot_bytes. */
+typedef struct qmc_msg_shm_chunk {
+    uint64_t first;           /* index of the chunk's first point */
+    uint32_t points;          /* points in the chunk, >= 1 */
+    uint32_t data_len;        /* bytes in the slot, <= slot_bytes */
+    uint32_t slot;            /* < slots */
+} qmc_msg_shm_chunk;
+
+/* SHM_RELEASE: hands back the `slots` oldest slots the client holds. */
+typedef struct qmc_msg_shm_release {
+    uint32_t slots;           /* 1 .. QMC_PROTO_SHM_MAX_SLOTS */
+} qmc_msg_shm_release;
 
 typedef struct qmc_msg_end {
     uint64_t points;          /* points sent for the request */
@@ -221,6 +272,9 @@ typedef struct qmc_msg {
         qmc_msg_job_result result;
         qmc_msg_stats_reply stats;    /* STATS has no payload */
         qmc_msg_error error;
+        qmc_msg_shm shm;              /* SHM_ATTACH and SHM_OK */
+        qmc_msg_shm_chunk shm_chunk;
+        qmc_msg_shm_release release;
     } u;
 } qmc_msg;
 

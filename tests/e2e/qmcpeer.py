@@ -8,10 +8,14 @@ prints "ok NAME" or "FAIL NAME: why" lines and exits non-zero on failure.
     qmcpeer.py SCENARIO ADDR [ARGS...]
 
 ADDR is unix:PATH, tcp:HOST:PORT or tcp:[V6]:PORT.  Every wait is bounded
-by a socket timeout; every loop by a count or a deadline.
+by a socket timeout; every loop by a count or a deadline.  The shared-memory
+transport (protocol version 2, PROTOCOL.md section 10) is spoken with
+os.memfd_create, fcntl seals and socket.send_fds, from the spec as well.
 """
+import fcntl
 import json
 import math
+import mmap
 import os
 import signal
 import socket
@@ -28,7 +32,7 @@ HEADER = struct.Struct("<4sBBHQII")  # magic, version, type, flags, id, len, res
 MSG = dict(HELLO=1, HELLO_OK=2, PING=3, PONG=4, POINTS=5, POINTS_CHUNK=6, END=7,
            INTEGRATE=8, JOB_ACCEPTED=9, JOB_PROGRESS=10, JOB_RESULT=11,
            JOB_STATUS=12, JOB_STATE=13, JOB_CANCEL=14, STATS=15, STATS_REPLY=16,
-           ERROR=17)
+           ERROR=17, SHM_ATTACH=18, SHM_OK=19, POINTS_SHM_CHUNK=20, SHM_RELEASE=21)
 NAME = {v: k for k, v in MSG.items()}
 KIND = dict(sobol=1, halton=2, hammersley=3, random=4, stratified=5, lhs=6)
 SCRAMBLE = dict(none=0, shift=1, owen=2, faure=3)
@@ -41,6 +45,8 @@ JOB_STATES = {1: "queued", 2: "running", 3: "done", 4: "cancelled", 5: "failed",
 MIS_POWER = 5
 QMC_ETOOBIG = -1011
 QMC_EPROTO = -1010
+QMC_EINVAL = -1001
+QMC_ENOTSUP = -1012
 ECANCELED = -125
 ETIMEDOUT = -110
 ESHUTDOWN = -108
@@ -141,6 +147,14 @@ def decode(mtype, p):
             d["stats"][name] = r.u("Q")
     elif mtype == MSG["ERROR"]:
         d["code"], d["message"] = r.u("i"), r.s16()
+    elif mtype == MSG["SHM_OK"]:
+        d["slots"], d["slot_bytes"] = r.u("I"), r.u("I")
+        if r.take(8) != bytes(8):
+            raise ValueError("reserved bytes in SHM_OK")
+    elif mtype == MSG["POINTS_SHM_CHUNK"]:
+        d["first"], d["points"], d["data_len"], d["slot"] = r.u("Q"), r.u("I"), r.u("I"), r.u("I")
+        if r.take(4) != bytes(4):
+            raise ValueError("reserved bytes in POINTS_SHM_CHUNK")
     else:
         raise ValueError("unexpected message type %r" % mtype)
     r.done()
@@ -148,7 +162,7 @@ def decode(mtype, p):
 
 
 class Peer:
-    def __init__(self, addr, timeout=15.0, hello=True, max_frame=16 << 20):
+    def __init__(self, addr, timeout=15.0, hello=True, max_frame=16 << 20, version=1):
         if addr.startswith("unix:"):
             self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             target = addr[5:]
@@ -163,8 +177,9 @@ class Peer:
         self.buf = bytearray()
         self.next_id = 100
         self.info = None
+        self.ring = None  # (mmap, slots, slot_bytes, next slot, slots held)
         if hello:
-            self.info = self.hello(max_frame=max_frame)
+            self.info = self.hello(max_frame=max_frame, version=version)
 
     def close(self):
         self.s.close()
@@ -199,8 +214,14 @@ class Peer:
         self.send(data)
         return self.recv()
 
-    def hello(self, max_frame=16 << 20, name="qmcpeer"):
-        t, rid, d = self.call(frame(MSG["HELLO"], 1, struct.pack("<HHI", 1, 1, max_frame)
+    def has_frame(self):
+        """True when a whole frame is already buffered (no wait needed)."""
+        if len(self.buf) < HEADER.size:
+            return False
+        return len(self.buf) >= HEADER.size + HEADER.unpack_from(self.buf)[5]
+
+    def hello(self, max_frame=16 << 20, name="qmcpeer", version=1):
+        t, rid, d = self.call(frame(MSG["HELLO"], 1, struct.pack("<HHI", 1, version, max_frame)
                                     + str16(name)))
         if t != "HELLO_OK":
             raise ValueError("HELLO answered with %s: %r" % (t, d))
@@ -215,10 +236,69 @@ class Peer:
         return t == "PONG" and r == rid and d["data"] == data
 
     def points_frame(self, rid, kind="sobol", dims=2, scramble="none", seed=0, set_size=0,
-                     start=0, count=8, fmt="f64", flags=0):
-        p = struct.pack("<BBBBII4xQQQQ", KIND[kind], SCRAMBLE[scramble], FORMAT[fmt][0], 0,
-                        dims, flags, seed, set_size, start, count)
+                     start=0, count=8, fmt="f64", flags=0, transport=0):
+        p = struct.pack("<BBBBII4xQQQQ", KIND[kind], SCRAMBLE[scramble], FORMAT[fmt][0],
+                        transport, dims, flags, seed, set_size, start, count)
         return frame(MSG["POINTS"], rid, p)
+
+    def attach(self, fd, slots, slot_bytes, ring=None, rid=None):
+        """SHM_ATTACH with fd beside it (None: no descriptor); returns the
+        answer (type, id, dict).  On SHM_OK the ring mmap is remembered."""
+        rid = rid or self.rid()
+        data = frame(MSG["SHM_ATTACH"], rid, struct.pack("<II8x", slots, slot_bytes))
+        if fd is None:
+            self.send(data)
+        else:
+            socket.send_fds(self.s, [data], [fd])
+        t, r, d = self.recv()
+        if t == "SHM_OK" and ring is not None:
+            self.ring = [ring, slots, slot_bytes, 0, 0]
+        return t, r, d
+
+    def release(self, n=None, rid=0):
+        n = self.ring[4] if n is None else n
+        self.send(frame(MSG["SHM_RELEASE"], rid, struct.pack("<I", n)))
+        if self.ring:
+            self.ring[4] -= min(n, self.ring[4])
+
+    def points_shm(self, release=True, max_chunks=1 << 20, **kw):
+        """POINTS through the attached ring: (data bytes, END dict, chunks).
+        Releases every held slot whenever no whole frame is buffered (one
+        SHM_RELEASE for a batch), unless release is False."""
+        rid = self.rid()
+        self.send(self.points_frame(rid, transport=1, **kw))
+        data, expect, chunks = bytearray(), kw.get("start", 0), 0
+        ring, slots, slot_bytes = self.ring[0], self.ring[1], self.ring[2]
+        for _ in range(max_chunks + 1):
+            t, r, d = self.recv()
+            if r != rid:
+                raise ValueError("answer for request %d, expected %d" % (r, rid))
+            if t == "ERROR":
+                if self.ring[4]:
+                    self.release()
+                raise PeerError(d)
+            if t == "END":
+                if d["points"] != kw.get("count", 8) or d["bytes"] != len(data):
+                    raise ValueError("END totals %r disagree with the chunks" % d)
+                if self.ring[4] and release:
+                    self.release()
+                return bytes(data), d, chunks
+            if t != "POINTS_SHM_CHUNK" or d["first"] != expect:
+                raise ValueError("chunk out of order: %s first %r" % (t, d.get("first")))
+            if d["slot"] != self.ring[3] or d["data_len"] > slot_bytes or self.ring[4] >= slots:
+                raise ValueError("slot %d (%d bytes) with %d held; expected slot %d"
+                                 % (d["slot"], d["data_len"], self.ring[4], self.ring[3]))
+            self.ring[3] = (d["slot"] + 1) % slots
+            self.ring[4] += 1
+            off = d["slot"] * slot_bytes
+            data += ring[off:off + d["data_len"]]
+            expect += d["points"]
+            chunks += 1
+            if chunks >= max_chunks:
+                return bytes(data), None, chunks
+            if release and not self.has_frame():
+                self.release()
+        raise ValueError("too many chunks")
 
     def points(self, **kw):
         """Returns (data bytes, END dict) or raises with the ERROR."""
@@ -738,7 +818,7 @@ def sc_malformed(addr):
     check("HELLO max_frame below 65536: ERROR EINVAL then close", len(errs) == 1 and
           errs[0]["code"] == -1001, repr(errs))
     p = Peer(addr, hello=False)
-    p.send(frame(MSG["HELLO"], 1, struct.pack("<HHI", 2, 3, 1 << 20) + str16("future")))
+    p.send(frame(MSG["HELLO"], 1, struct.pack("<HHI", 3, 4, 1 << 20) + str16("future")))
     errs = expect_closed(p, "version")
     check("no common version: ERROR ENOTSUP then close", len(errs) == 1 and
           errs[0]["code"] == -1012, repr(errs))
@@ -797,12 +877,239 @@ def sc_ping(addr):
     p.close()
 
 
+# ---- the shared-memory transport (PROTOCOL.md section 10) -------------------
+
+def make_ring(slots, slot_bytes, seal=True, populate=True, size=None, name="qmcpeer-ring"):
+    """A memfd for a ring as the spec asks (sealed, every page written) or
+    deliberately not; returns (fd, read-only mmap of it or None)."""
+    size = size if size is not None else slots * slot_bytes
+    fd = os.memfd_create(name, os.MFD_CLOEXEC | os.MFD_ALLOW_SEALING)
+    os.ftruncate(fd, size)
+    if populate and size:
+        os.pwrite(fd, bytes(size), 0)
+    if seal:
+        fcntl.fcntl(fd, fcntl.F_ADD_SEALS,
+                    fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW | fcntl.F_SEAL_SEAL)
+    m = mmap.mmap(fd, size, mmap.MAP_SHARED, mmap.PROT_READ) if size else None
+    return fd, m
+
+
+def shm_peer(addr, slots=4, slot_bytes=64 << 10, timeout=15.0):
+    """A version-2 peer with a ring attached (fd closed once sent)."""
+    p = Peer(addr, version=2, timeout=timeout)
+    fd, m = make_ring(slots, slot_bytes)
+    t, r, d = p.attach(fd, slots, slot_bytes, ring=m)
+    os.close(fd)
+    if t != "SHM_OK" or d["slots"] != slots or d["slot_bytes"] != slot_bytes:
+        raise ValueError("SHM_ATTACH answered %s %r" % (t, d))
+    return p
+
+
+def fd_count(pid):
+    return len(os.listdir("/proc/%d/fd" % pid))
+
+
+def ring_maps(pid, name="qmcpeer-ring"):
+    with open("/proc/%d/maps" % pid) as f:
+        return sum(1 for line in f if ("memfd:" + name) in line)
+
+
+def refused(p, fd, slots, slot_bytes, name, code, text):
+    t, r, d = p.attach(fd, slots, slot_bytes)
+    check("SHM_ATTACH %s: ERROR %d '%s'" % (name, code, text),
+          t == "ERROR" and d["code"] == code and text in d["message"] and
+          "\n" not in d["message"], repr((t, d)))
+
+
+def sc_shm(addr, tcp_addr, pid, limit_mb):
+    """The ring: same bytes as inline, the memfd rules, descriptors never
+    leak, releases and stalls, TCP.  limit_mb bounds the daemon's VmRSS
+    growth while a client stalls its ring (sanitizers need more)."""
+    pid, limit = int(pid), int(limit_mb) * 1024
+    fds0 = fd_count(pid)
+    # Version negotiation: 1..2 gets 2, 1..1 still gets 1.
+    check("HELLO 1..2 chooses version 2", Peer(addr, version=2).info["version"] == 2)
+    check("HELLO 1..1 chooses version 1", Peer(addr).info["version"] == 1)
+
+    # 1. Byte for byte against the inline stream, small slots (many laps).
+    p = shm_peer(addr, slots=4, slot_bytes=64 << 10)
+    check("ring attached: the daemon maps the memfd", ring_maps(pid) == 1)
+    inline = Peer(addr)
+    for kw in (dict(kind="sobol", dims=32, count=20000, start=100),
+               dict(kind="sobol", dims=5, scramble="owen", seed=9, count=30001, fmt="f32"),
+               dict(kind="halton", dims=6, scramble="owen", seed=5, count=9999),
+               dict(kind="random", dims=3, seed=5, count=40000, fmt="u32"),
+               dict(kind="sobol", dims=2, count=1)):
+        a, _ = inline.points(**kw)
+        b, end, chunks = p.points_shm(**kw)
+        check("shm == inline, %s d=%d %s x%d (%d chunks)" % (kw["kind"], kw["dims"],
+              kw.get("fmt", "f64"), kw["count"], chunks), a == b and len(a) == end["bytes"],
+              "%d vs %d bytes" % (len(a), len(b)))
+    # A point larger than a slot; POINTS transport 1 interleaved with inline.
+    try:
+        p.points_shm(kind="sobol", dims=21201, count=3)
+        check("a point larger than a slot is refused", False, "no ERROR")
+    except PeerError as e:
+        check("a point larger than a slot: ERROR ETOOBIG", e.code == QMC_ETOOBIG, e.message)
+    a, _ = p.points(kind="sobol", dims=4, count=5000)
+    b, _, _ = p.points_shm(kind="sobol", dims=4, count=5000)
+    check("inline and shm streams on one ringed connection agree", a == b)
+    fd, m = make_ring(4, 64 << 10)
+    refused(p, fd, 4, 64 << 10, "a second ring", QMC_EINVAL, "already attached")
+    os.close(fd)
+    check("connection usable after the refusal", p.ping())
+    p.close()
+    inline.close()
+
+    # 2. The memfd rules: each refusal leaves the connection usable.
+    q = Peer(addr, version=2)
+    fd, m = make_ring(2, 64 << 10, seal=False)
+    refused(q, fd, 2, 64 << 10, "unsealed", QMC_EINVAL, "F_SEAL_SHRINK")
+    os.close(fd)
+    fd, m = make_ring(2, 64 << 10, size=(64 << 10) + 4096)
+    refused(q, fd, 2, 64 << 10, "too small", QMC_EINVAL, "less than")
+    os.close(fd)
+    fd, m = make_ring(2, 64 << 10, populate=False)
+    refused(q, fd, 2, 64 << 10, "unpopulated", QMC_EINVAL, "not populated")
+    os.close(fd)
+    refused(q, None, 2, 64 << 10, "without a descriptor", QMC_EINVAL, "without a file descriptor")
+    rd, wr = os.pipe()
+    refused(q, rd, 2, 64 << 10, "a pipe", QMC_EINVAL, "not a memfd")
+    os.close(rd)
+    os.close(wr)
+    q.send(q.points_frame(q.rid(), transport=1))
+    t, r, d = q.recv()
+    check("POINTS transport 1 without a ring: ERROR EINVAL",
+          t == "ERROR" and d["code"] == QMC_EINVAL and "SHM_ATTACH" in d["message"], repr(d))
+    check("connection usable after the refusals", q.ping())
+    q.close()
+
+    # 3. A descriptor with any other frame is closed, and so is the connection.
+    other = Peer(addr)
+    before = fd_count(pid)
+    for i in range(5):
+        x = Peer(addr, version=2)
+        fd, m = make_ring(2, 64 << 10)
+        socket.send_fds(x.s, [x.ping_frame(x.rid())], [fd])
+        os.close(fd)
+        errs = expect_closed(x, "fd with PING")
+        if i == 0:
+            check("a descriptor with a PING: ERROR EPROTO then close",
+                  len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+        x.close()
+    x = Peer(addr, version=2)
+    fd, m = make_ring(2, 64 << 10)
+    fd2, m2 = make_ring(2, 64 << 10)
+    data = frame(MSG["SHM_ATTACH"], x.rid(), struct.pack("<II8x", 2, 64 << 10))
+    socket.send_fds(x.s, [data], [fd, fd2])
+    errs = expect_closed(x, "two fds")
+    check("two descriptors at once: ERROR EPROTO then close",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+    for f in (fd, fd2):
+        os.close(f)
+    x.close()
+    time.sleep(0.2)
+    after = fd_count(pid)
+    check("descriptors passed with the wrong frame are closed (daemon fds %d -> %d)"
+          % (before, after), after <= before)
+    check("no ring mapped after those connections", ring_maps(pid) == 0)
+    check("other clients served meanwhile", other.ping())
+
+    # 4. Releasing more than held: ERROR EPROTO and close; others served.
+    x = shm_peer(addr, slots=2, slot_bytes=64 << 10)
+    x.points_shm(kind="sobol", dims=8, count=100)  # held slots released
+    x.release(1)
+    errs = expect_closed(x, "over-release")
+    check("SHM_RELEASE of more slots than held: ERROR EPROTO then close",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO and "holds" in errs[0]["message"],
+          repr(errs))
+    x.close()
+    x = shm_peer(addr, slots=2, slot_bytes=64 << 10)
+    x.points_shm(kind="sobol", dims=8, count=1000, release=False)
+    x.release(1, rid=77)
+    errs = expect_closed(x, "release with an id")
+    check("SHM_RELEASE with a request id: ERROR EPROTO then close",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+    x.close()
+    check("other clients served after the violations", other.ping())
+
+    # 5. A client that never releases stalls only its ring streams.
+    base = vmrss_kb(pid)
+    stuck = shm_peer(addr, slots=4, slot_bytes=64 << 10, timeout=2.0)
+    got = stuck.points_shm(kind="sobol", dims=16, count=1 << 24, release=False,
+                           max_chunks=4)[2]
+    stuck.s.settimeout(0.5)
+    try:
+        more = stuck.recv()
+    except socket.timeout:
+        more = None
+    check("a client that never releases gets one ring's worth (%d chunks), then nothing"
+          % got, got == 4 and more is None, repr(more))
+    stuck.s.settimeout(5.0)
+    check("its other requests are still answered", stuck.ping())
+    # Meanwhile another ring client streams (the daemon's memory stays
+    # flat: nothing piles up for the stalled one), and an inline one too.
+    peak, rounds = base, 0
+    deadline = time.time() + 1.0
+    y = shm_peer(addr, slots=4, slot_bytes=64 << 10)
+    while time.time() < deadline:
+        a, _, _ = y.points_shm(kind="sobol", dims=4, count=20000, start=rounds)
+        rounds += other.ping() and len(a) == 20000 * 4 * 8
+        peak = max(peak, vmrss_kb(pid))
+    b, _ = other.points(kind="sobol", dims=4, count=20000, start=rounds - 1)
+    check("others served while it stalls (%d rounds)" % rounds, rounds > 3 and a == b)
+    check("daemon VmRSS flat while it stalls (%d kB -> peak %d kB, limit +%d kB)"
+          % (base, peak, limit), peak - base < limit)
+    # Releasing lets it go on: the next chunk lands in slot 0 again.
+    stuck.release()
+    t, r, d = stuck.recv()
+    check("after SHM_RELEASE the stalled stream goes on",
+          t == "POINTS_SHM_CHUNK" and d["slot"] == 0 and d["first"] == 4 * 512, repr(d))
+    stuck.close()
+    y.close()
+
+    # 6. TCP: ENOTSUP (no descriptor can travel there).
+    t = Peer(tcp_addr, version=2)
+    tt, r, d = t.attach(None, 2, 64 << 10)
+    check("SHM_ATTACH over TCP: ERROR ENOTSUP", tt == "ERROR" and d["code"] == QMC_ENOTSUP,
+          repr(d))
+    t.send(t.points_frame(t.rid(), transport=1))
+    tt, r, d = t.recv()
+    check("POINTS transport 1 over TCP: ERROR ENOTSUP",
+          tt == "ERROR" and d["code"] == QMC_ENOTSUP, repr(d))
+    check("TCP connection usable", t.ping())
+    t.close()
+    other.close()
+    time.sleep(0.2)
+    check("no descriptor left behind (daemon fds %d -> %d), no ring mapped"
+          % (fds0, fd_count(pid)), fd_count(pid) <= fds0 and ring_maps(pid) == 0)
+
+
+def sc_shm_limits(addr, limit):
+    """max-shm-bytes, and write-timeout-ms for a ring nobody releases."""
+    limit = int(limit)
+    p = Peer(addr, version=2)
+    slot = 1 << 20
+    n = max(2, limit // slot + 1)
+    fd, m = make_ring(n, slot)
+    refused(p, fd, n, slot, "over max-shm-bytes", QMC_ETOOBIG, "max-shm-bytes")
+    os.close(fd)
+    p.close()
+    stuck = shm_peer(addr, slots=2, slot_bytes=64 << 10, timeout=10.0)
+    stuck.points_shm(kind="sobol", dims=16, count=1 << 20, release=False, max_chunks=2)
+    t0 = time.time()
+    errs = expect_closed(stuck, "ring stall")
+    check("every slot held past write-timeout-ms: ERROR ETIMEDOUT then close (%.1f s)"
+          % (time.time() - t0), len(errs) == 1 and errs[0]["code"] == ETIMEDOUT and
+          "SHM_RELEASE" in errs[0]["message"], repr(errs))
+
+
 SCENARIOS = dict(hello=sc_hello, points=sc_points, points_error=sc_points_error,
                  integrate=sc_integrate, pipeline=sc_pipeline, concurrent=sc_concurrent,
                  disconnect=sc_disconnect, noread=sc_noread, stall=sc_stall, cancel=sc_cancel,
                  timeout=sc_timeout, sigterm_jobs=sc_jobs_for_sigterm, reload=sc_reload,
                  malformed=sc_malformed, partial=sc_partial, maxconn=sc_maxconn,
-                 stats=sc_stats, ping=sc_ping)
+                 stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits)
 
 
 def main(argv):

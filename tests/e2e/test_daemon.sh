@@ -9,8 +9,10 @@
 # clients, a client vanishing mid-stream, a client that never reads (VmRSS
 # stays bounded), job cancel and time limit, malformed and oversized
 # frames, partial-frame and handshake deadlines, STATS, SIGHUP reload,
-# max-connections, stale and live sockets, SIGTERM with jobs running, and
-# daemonizing.
+# max-connections, stale and live sockets, SIGTERM with jobs running,
+# daemonizing, and the shared-memory transport (the same bytes as inline,
+# the memfd rules, no descriptor left in the daemon, releases, a client
+# that never releases, TCP refused, max-shm-bytes, its write timeout).
 # Env: QMC, QMCD (binaries), BUILD.  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
@@ -159,6 +161,27 @@ peer concurrent "$U" 200
 # 7. A client vanishing mid-stream; 8. one that never reads.
 peer disconnect "$T4"
 peer noread "$U" "$MAIN" 48
+# 8b. The shared-memory ring (PROTOCOL.md section 10).
+peer shm "$U" "$T4" "$MAIN" 16
+# 8c. `qmc points --connect unix:` takes a ring by itself: while the stream
+# runs (held up by a pipe we read slowly) the daemon maps the client's
+# memfd; the bytes equal the in-process ones.
+mkfifo "$tmp/fifo"
+"$QMC" points --seq sobol --dims 16 --count 400000 --scramble owen --seed 3 --format f64 \
+    --connect "$U" > "$tmp/fifo" 2> "$tmp/shmcli.err" &
+QPID=$!
+exec 3< "$tmp/fifo"
+dd bs=65536 count=16 iflag=fullblock <&3 > "$tmp/shm1.bin" 2> /dev/null
+maps=$(grep -c "memfd:qmc-client-ring" "/proc/$MAIN/maps")
+cat <&3 >> "$tmp/shm1.bin"
+exec 3<&-
+wait "$QPID"
+st=$?
+"$QMC" points --seq sobol --dims 16 --count 400000 --scramble owen --seed 3 --format f64 \
+    > "$tmp/shm2.bin"
+if [ "$maps" -ge 1 ]; then ok; else bad "qmc points --connect unix: attached no ring"; fi
+if [ $st -eq 0 ] && cmp -s "$tmp/shm1.bin" "$tmp/shm2.bin"; then ok
+else bad "qmc points through the ring differs from in-process (exit $st): $(head -c 200 "$tmp/shmcli.err")"; fi
 # 9. Jobs: cancel, time limit.
 peer cancel "$U"
 peer timeout "$U"
@@ -183,11 +206,12 @@ else bad "live socket: unexpected message: $(cat "$tmp/live.out")"; fi
 kill -9 "$BPID"
 wait_exit "$BPID" 5
 [ -S "$B" ] || bad "the killed daemon's socket file is gone; no stale file to test"
-start b2 --listen "unix:$B" --threads 1 --write-timeout-ms 1000
+start b2 --listen "unix:$B" --threads 1 --write-timeout-ms 1000 --max-shm-bytes 1M
 B2PID=$pid
 if grep -q "replaced a stale socket" "$tmp/b2.log"; then ok; else bad "stale socket not reported"; fi
 peer ping "unix:$B"
 peer stall "unix:$B"
+peer shm_limits "unix:$B" 1048576
 kill -TERM "$B2PID"
 if wait_exit "$B2PID" 5 && wait "$B2PID" && [ ! -e "$B" ]; then ok
 else bad "idle daemon: SIGTERM did not exit 0 and remove its socket"; fi

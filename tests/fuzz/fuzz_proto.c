@@ -6,7 +6,8 @@
  * largest, until the decoder stops (needs more bytes, or refuses).  Every
  * frame the decoder accepts must be canonical: encoding the decoded
  * message reproduces exactly the bytes consumed, encoded_size agrees, and
- * the re-encoded frame decodes again to the same length.  Decoding must
+ * the re-encoded frame decodes again to the same length; the shared-memory
+ * messages keep the bounds a receiver relies on.  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
  * The Makefile's fuzz rule links build/fuzz/libqmc.a only, so the codec
@@ -73,6 +74,26 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
             for (uint32_t i = 0; i < m.u.stats.count; i++)
                 if (qmc_proto_stat_at(&m.u.stats, i).name.len > QMC_PROTO_MAX_NAME)
                     __builtin_trap();
+        /* The shared-memory messages: what a receiver relies on before it
+         * touches a ring (PROTOCOL.md section 10) holds for every frame the
+         * decoder accepts. */
+        if ((m.type == QMC_MSG_SHM_ATTACH || m.type == QMC_MSG_SHM_OK) &&
+            (m.u.shm.slots < QMC_PROTO_SHM_MIN_SLOTS || m.u.shm.slots > QMC_PROTO_SHM_MAX_SLOTS ||
+             m.u.shm.slot_bytes < QMC_PROTO_SHM_MIN_SLOT_BYTES ||
+             m.u.shm.slot_bytes > QMC_PROTO_SHM_MAX_SLOT_BYTES ||
+             m.u.shm.slot_bytes % QMC_PROTO_SHM_SLOT_ALIGN != 0))
+            __builtin_trap();
+        if (m.type == QMC_MSG_POINTS_SHM_CHUNK &&
+            (m.u.shm_chunk.slot >= QMC_PROTO_SHM_MAX_SLOTS || m.u.shm_chunk.points == 0 ||
+             m.u.shm_chunk.data_len > QMC_PROTO_SHM_MAX_SLOT_BYTES ||
+             m.u.shm_chunk.data_len % m.u.shm_chunk.points != 0))
+            __builtin_trap();
+        if (m.type == QMC_MSG_SHM_RELEASE &&
+            (m.u.release.slots == 0 || m.u.release.slots > QMC_PROTO_SHM_MAX_SLOTS))
+            __builtin_trap();
+        if (m.type == QMC_MSG_POINTS && m.u.points.transport != QMC_TRANSPORT_INLINE &&
+            m.u.points.transport != QMC_TRANSPORT_SHM)
+            __builtin_trap();
         off += (size_t)n;
     }
 }

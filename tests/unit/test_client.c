@@ -5,8 +5,11 @@
  * PONG, ERROR, chunks, job frames, and malformed or oversized frames).
  *
  * The fake server never asserts (cmocka is not thread-safe): it records
- * what it saw and the test checks after joining it.
+ * what it saw and the test checks after joining it.  For the shared-memory
+ * ring it takes the client's memfd with recvmsg, checks its seals, maps it
+ * and writes chunks into its slots, as qmcd does.
  */
+#define _GNU_SOURCE
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -14,12 +17,16 @@
 #include <cmocka.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/time.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <netinet/in.h>
 #include <arpa/inet.h>
@@ -236,18 +243,20 @@ static int srv_expect(fake *f, int fd, qmc_msg *m, qmc_msg_type t)
     return 0;
 }
 
-static int srv_hello(fake *f, int fd)
+/* HELLO, answered with protocol version `version`. */
+static int srv_hello_v(fake *f, int fd, uint16_t version)
 {
     qmc_msg m;
     if (srv_expect(f, fd, &m, QMC_MSG_HELLO))
         return -1;
-    if (m.u.hello.max_frame != QMC_CLIENT_MAX_FRAME || m.u.hello.version_min != 1)
+    if (m.u.hello.max_frame != QMC_CLIENT_MAX_FRAME || m.u.hello.version_min != 1 ||
+        m.u.hello.version_max != QMC_PROTO_VERSION_MAX)
         fake_bad(f, "HELLO fields");
     uint64_t id = m.request_id;
     memset(&m, 0, sizeof m);
     m.type = QMC_MSG_HELLO_OK;
     m.request_id = id;
-    m.u.hello_ok.version = 1;
+    m.u.hello_ok.version = version;
     m.u.hello_ok.max_frame = 1u << 20;
     m.u.hello_ok.max_inflight = 4;
     m.u.hello_ok.max_points = 1000;
@@ -256,6 +265,11 @@ static int srv_hello(fake *f, int fd)
     m.u.hello_ok.engine = (qmc_str){"test 1.0", 8};
     srv_send(f, fd, &m);
     return 0;
+}
+
+static int srv_hello(fake *f, int fd)
+{
+    return srv_hello_v(f, fd, 1);
 }
 
 static void *fake_main(void *arg)
@@ -737,6 +751,300 @@ static void test_jobs(void **state)
     fake_stop(f);
 }
 
+/* ---- the shared-memory ring ----------------------------------------------------------- */
+
+static void script_hello_ping(fake *f, int fd);
+static void script_hello_ping_tail(fake *f, int fd);
+
+/* As srv_read, with recvmsg: a descriptor passed beside the bytes goes to
+ * *pass_fd (-1 when none came). */
+static int srv_read_fd(fake *f, int fd, qmc_msg *m, int *pass_fd)
+{
+    *pass_fd = -1;
+    memmove(f->in, f->in + f->in_used, f->in_len - f->in_used);
+    f->in_len -= f->in_used;
+    f->in_used = 0;
+    for (;;) {
+        int n = qmc_proto_decode(f->in, f->in_len, QMC_PROTO_MAX_PAYLOAD, m);
+        if (n > 0) {
+            f->in_used = (size_t)n;
+            return 0;
+        }
+        if (n != QMC_EAGAIN)
+            return -1;
+        union {
+            struct cmsghdr align;
+            char bytes[CMSG_SPACE(sizeof(int))];
+        } ctl;
+        struct iovec iov = {f->in + f->in_len, sizeof f->in - f->in_len};
+        struct msghdr mh;
+        memset(&mh, 0, sizeof mh);
+        mh.msg_iov = &iov;
+        mh.msg_iovlen = 1;
+        mh.msg_control = ctl.bytes;
+        mh.msg_controllen = sizeof ctl.bytes;
+        ssize_t r = recvmsg(fd, &mh, MSG_CMSG_CLOEXEC);
+        if (r <= 0)
+            return -1;
+        for (struct cmsghdr *cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm))
+            if (cm->cmsg_level == SOL_SOCKET && cm->cmsg_type == SCM_RIGHTS)
+                memcpy(pass_fd, CMSG_DATA(cm), sizeof(int));
+        f->in_len += (size_t)r;
+    }
+}
+
+/* Expects SHM_ATTACH with a descriptor of the given geometry, checks the
+ * memfd as qmcd would (sealed, long enough, populated) and maps it.
+ * Returns the mapping (closing the descriptor) or NULL, noted. */
+static uint8_t *srv_attach(fake *f, int fd, uint32_t slots, uint32_t slot_bytes,
+                           uint64_t *request_id)
+{
+    qmc_msg m;
+    int pfd;
+    if (srv_read_fd(f, fd, &m, &pfd) != 0 || m.type != QMC_MSG_SHM_ATTACH || pfd < 0) {
+        fake_bad(f, "expected SHM_ATTACH with a descriptor");
+        if (pfd >= 0)
+            close(pfd);
+        return NULL;
+    }
+    *request_id = m.request_id;
+    if (m.u.shm.slots != slots || m.u.shm.slot_bytes != slot_bytes)
+        fake_bad(f, "SHM_ATTACH geometry");
+    const size_t bytes = (size_t)slots * slot_bytes;
+    int seals = fcntl(pfd, F_GET_SEALS);
+    struct stat st;
+    if (seals < 0 || (seals & (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL)) !=
+                         (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL))
+        fake_bad(f, "the memfd is not sealed");
+    if (fstat(pfd, &st) != 0 || (size_t)st.st_size < bytes)
+        fake_bad(f, "the memfd is too small");
+    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, pfd, 0);
+    close(pfd);
+    if (p == MAP_FAILED) {
+        fake_bad(f, "cannot map the memfd");
+        return NULL;
+    }
+    unsigned char vec[16];
+    if (mincore(p, 4096, vec) != 0 || !(vec[0] & 1))
+        fake_bad(f, "the memfd is not populated");
+    return p;
+}
+
+static void srv_shm_ok(fake *f, int fd, uint64_t id, uint32_t slots, uint32_t slot_bytes)
+{
+    qmc_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = QMC_MSG_SHM_OK;
+    m.request_id = id;
+    m.u.shm.slots = slots;
+    m.u.shm.slot_bytes = slot_bytes;
+    srv_send(f, fd, &m);
+}
+
+/* Points first .. first + points of `dims` coordinates as send_chunk makes
+ * them, into a slot; then the frame naming it. */
+static void send_shm_chunk(fake *f, int fd, uint8_t *ring, uint32_t slot_bytes, uint64_t id,
+                           uint64_t first, uint32_t points, uint32_t dims, uint32_t slot)
+{
+    uint8_t *data = ring + (size_t)slot * slot_bytes;
+    for (uint32_t p = 0; p < points; p++)
+        for (uint32_t j = 0; j < dims; j++) {
+            double v = (double)(first + p) + 0.125 * j;
+            uint64_t bits;
+            memcpy(&bits, &v, 8);
+            for (int b = 0; b < 8; b++)
+                data[((size_t)p * dims + j) * 8 + b] = (uint8_t)(bits >> (8 * b));
+        }
+    qmc_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = QMC_MSG_POINTS_SHM_CHUNK;
+    m.request_id = id;
+    m.u.shm_chunk.first = first;
+    m.u.shm_chunk.points = points;
+    m.u.shm_chunk.data_len = points * dims * 8;
+    m.u.shm_chunk.slot = slot;
+    srv_send(f, fd, &m);
+}
+
+/* Reads SHM_RELEASE frames until at most `keep` slots are held. */
+static int srv_take_releases(fake *f, int fd, uint32_t *held, uint32_t keep)
+{
+    while (*held > keep) {
+        qmc_msg m;
+        if (srv_expect(f, fd, &m, QMC_MSG_SHM_RELEASE))
+            return -1;
+        if (m.request_id != 0 || m.u.release.slots > *held) {
+            fake_bad(f, "SHM_RELEASE with an id, or of more than held");
+            return -1;
+        }
+        *held -= m.u.release.slots;
+        f->arg++; /* releases seen */
+    }
+    return 0;
+}
+
+/* An explicit 2 x 64 KiB ring; a stream of 10000 points (4 dims, f64:
+ * 2048 a slot, 5 chunks) served only as slots come back; then a chunk in
+ * the wrong slot. */
+enum { SHM_SLOT = 64 << 10, SHM_DIMS = 4, SHM_COUNT = 10000 };
+
+static void script_shm(fake *f, int fd)
+{
+    if (srv_hello_v(f, fd, 2))
+        return;
+    uint64_t id;
+    uint8_t *ring = srv_attach(f, fd, 2, SHM_SLOT, &id);
+    if (!ring)
+        return;
+    srv_shm_ok(f, fd, id, 2, SHM_SLOT);
+    qmc_msg m;
+    if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+        goto out;
+    if (m.u.points.transport != QMC_TRANSPORT_SHM || m.u.points.count != SHM_COUNT)
+        fake_bad(f, "POINTS not through the ring");
+    id = m.request_id;
+    const uint32_t per = SHM_SLOT / (SHM_DIMS * 8);
+    uint32_t held = 0, slot = 0;
+    uint64_t sent = 0;
+    while (sent < SHM_COUNT) {
+        if (srv_take_releases(f, fd, &held, 1) != 0)
+            goto out;
+        uint32_t pts = SHM_COUNT - sent < per ? (uint32_t)(SHM_COUNT - sent) : per;
+        send_shm_chunk(f, fd, ring, SHM_SLOT, id, 10 + sent, pts, SHM_DIMS, slot);
+        slot ^= 1;
+        held++;
+        sent += pts;
+    }
+    send_end(f, fd, id, SHM_COUNT, (uint64_t)SHM_COUNT * SHM_DIMS * 8);
+    /* After END the client hands back what it still holds. */
+    if (srv_take_releases(f, fd, &held, 0) != 0)
+        goto out;
+    /* The next stream: a chunk naming the wrong slot (slot 1 is next). */
+    if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+        goto out;
+    send_shm_chunk(f, fd, ring, SHM_SLOT, m.request_id, 0, 2, SHM_DIMS, slot ^ 1);
+out:
+    munmap(ring, 2 * SHM_SLOT);
+}
+
+static void test_shm(void **state)
+{
+    (void)state;
+    fake *f = fake_start(script_shm, 0);
+    qmc_client *c = NULL;
+    assert_int_equal(qmc_client_connect(f->endpoint, TIMEOUT_MS, &c), 0);
+    assert_int_equal(qmc_client_shm_slots(c), 0);
+    /* Refused here, before anything is sent. */
+    assert_int_equal(qmc_client_attach_shm(c, 1, SHM_SLOT), QMC_EINVAL);
+    assert_int_equal(qmc_client_attach_shm(c, 65, SHM_SLOT), QMC_EINVAL);
+    assert_int_equal(qmc_client_attach_shm(c, 2, SHM_SLOT + 8), QMC_EINVAL);
+    assert_int_equal(qmc_client_attach_shm(c, 2, 8u << 20), QMC_EINVAL);
+    assert_non_null(strstr(qmc_client_last_error(c), "slots"));
+    assert_int_equal(qmc_client_attach_shm(c, 2, SHM_SLOT), 0);
+    assert_int_equal(qmc_client_shm_slots(c), 2);
+    assert_int_equal(qmc_client_shm_slot_bytes(c), SHM_SLOT);
+    assert_int_equal(qmc_client_attach_shm(c, 2, SHM_SLOT), QMC_EINVAL);
+    assert_non_null(strstr(qmc_client_last_error(c), "already attached"));
+    qmc_seq_spec spec = {QMC_SEQ_SOBOL, SHM_DIMS, QMC_SCRAMBLE_NONE, 0, 0, 0};
+    static double out[SHM_COUNT * SHM_DIMS];
+    assert_int_equal(qmc_client_points(c, &spec, 10, SHM_COUNT, QMC_FORMAT_F64, out,
+                                       sizeof out), 0);
+    for (int p = 0; p < SHM_COUNT; p++)
+        for (int j = 0; j < SHM_DIMS; j++)
+            if (out[p * SHM_DIMS + j] != 10 + p + 0.125 * j)
+                fail_msg("point %d coordinate %d: %g", p, j, out[p * SHM_DIMS + j]);
+    /* A chunk in the wrong slot closes the connection and unmaps the ring. */
+    assert_int_equal(qmc_client_points(c, &spec, 0, 2, QMC_FORMAT_F64, out, sizeof out),
+                     QMC_EPROTO);
+    assert_non_null(strstr(qmc_client_last_error(c), "ring slot 0; expected slot 1"));
+    assert_int_equal(qmc_client_shm_slots(c), 0);
+    double rtt;
+    assert_int_equal(qmc_client_ping(c, &rtt), -ENOTCONN);
+    qmc_client_close(c);
+    int releases = f->arg;
+    fake_stop(f);
+    assert_true(releases >= 3); /* 5 chunks in a 2-slot ring, the last after END */
+}
+
+/* The automatic ring, refused: the points come inline, and it is not
+ * offered again; an explicit one is refused too, the connection lives. */
+static void script_shm_refused(fake *f, int fd)
+{
+    if (srv_hello_v(f, fd, 2))
+        return;
+    qmc_msg m;
+    int pfd;
+    if (srv_read_fd(f, fd, &m, &pfd) != 0 || m.type != QMC_MSG_SHM_ATTACH || pfd < 0 ||
+        m.u.shm.slots != 8 || m.u.shm.slot_bytes != QMC_PROTO_CHUNK_BYTES) {
+        fake_bad(f, "expected the automatic SHM_ATTACH (8 x 1 MiB) with a descriptor");
+        if (pfd >= 0)
+            close(pfd);
+        return;
+    }
+    close(pfd);
+    srv_error(f, fd, m.request_id, QMC_ENOTSUP, "shared memory is off here");
+    for (int round = 0; round < 2; round++) {
+        if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+            return;
+        if (m.u.points.transport != QMC_TRANSPORT_INLINE)
+            fake_bad(f, "POINTS through a ring that was refused");
+        uint64_t id = m.request_id, count = m.u.points.count, sent = 0;
+        while (sent < count) {
+            uint32_t pts = count - sent < 2048 ? (uint32_t)(count - sent) : 2048;
+            send_chunk(f, fd, id, sent, pts, 3);
+            sent += pts;
+        }
+        send_end(f, fd, id, count, count * 24);
+    }
+    if (srv_read_fd(f, fd, &m, &pfd) != 0 || m.type != QMC_MSG_SHM_ATTACH || pfd < 0) {
+        fake_bad(f, "expected the explicit SHM_ATTACH");
+        return;
+    }
+    close(pfd);
+    srv_error(f, fd, m.request_id, QMC_ETOOBIG, "max-shm-bytes: too big");
+    script_hello_ping_tail(f, fd);
+}
+
+static void test_shm_refused(void **state)
+{
+    (void)state;
+    fake *f = fake_start(script_shm_refused, 0);
+    qmc_client *c = NULL;
+    assert_int_equal(qmc_client_connect(f->endpoint, TIMEOUT_MS, &c), 0);
+    qmc_seq_spec spec = {QMC_SEQ_SOBOL, 3, QMC_SCRAMBLE_NONE, 0, 0, 0};
+    enum { N = 50000 }; /* 1.2 MB: more than a chunk, so a ring is tried */
+    static double out[N * 3];
+    for (int round = 0; round < 2; round++) {
+        assert_int_equal(qmc_client_points(c, &spec, 0, N, QMC_FORMAT_F64, out, sizeof out), 0);
+        assert_string_equal(qmc_client_last_error(c), "");
+        assert_true(out[(N - 1) * 3 + 2] == N - 1 + 0.25);
+        assert_int_equal(qmc_client_shm_slots(c), 0);
+    }
+    assert_int_equal(qmc_client_attach_shm(c, 2, SHM_SLOT), QMC_ETOOBIG);
+    assert_string_equal(qmc_client_last_error(c), "max-shm-bytes: too big");
+    double rtt;
+    assert_int_equal(qmc_client_ping(c, &rtt), 0);
+    qmc_client_close(c);
+    fake_stop(f);
+}
+
+/* A version-1 server: no ring is offered or can be asked for. */
+static void test_shm_v1(void **state)
+{
+    (void)state;
+    fake *f = fake_start(script_hello_ping, 0);
+    qmc_client *c = NULL;
+    assert_int_equal(qmc_client_connect(f->endpoint, TIMEOUT_MS, &c), 0);
+    assert_int_equal(qmc_client_attach_shm(c, 2, SHM_SLOT), QMC_ENOTSUP);
+    assert_non_null(strstr(qmc_client_last_error(c), "protocol version 1"));
+    /* Turning the automatic ring off is always fine. */
+    assert_int_equal(qmc_client_attach_shm(c, 0, 0), 0);
+    double rtt;
+    assert_int_equal(qmc_client_ping(c, &rtt), 0);
+    qmc_client_close(c);
+    fake_stop(f);
+}
+
 /* ---- allocation failure --------------------------------------------------------------- */
 
 typedef struct alloc_ctl {
@@ -753,6 +1061,11 @@ static void script_hello_ping(fake *f, int fd)
 {
     if (srv_hello(f, fd))
         return;
+    script_hello_ping_tail(f, fd);
+}
+
+static void script_hello_ping_tail(fake *f, int fd)
+{
     qmc_msg m;
     if (srv_expect(f, fd, &m, QMC_MSG_PING))
         return;
@@ -808,6 +1121,9 @@ int main(void)
         cmocka_unit_test(test_points),
         cmocka_unit_test(test_stream_stop),
         cmocka_unit_test(test_jobs),
+        cmocka_unit_test(test_shm),
+        cmocka_unit_test(test_shm_refused),
+        cmocka_unit_test(test_shm_v1),
         cmocka_unit_test(test_alloc_failures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

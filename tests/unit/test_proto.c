@@ -255,6 +255,7 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         m->u.points.seq.seed = mx ? UINT64_MAX : 0;
         m->u.points.seq.set_size = mx ? UINT64_MAX : 0;
         m->u.points.format = mx ? QMC_FORMAT_U32 : QMC_FORMAT_F64;
+        m->u.points.transport = mx ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
         m->u.points.start = mx ? UINT64_MAX : 0;
         m->u.points.count = mx ? UINT64_MAX : ex ? 2 : 0;
         break;
@@ -311,6 +312,27 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         m->u.error.code = mx ? INT32_MIN : ex ? -125 /* -ECANCELED, Linux */ : -1;
         m->u.error.message = mx ? text_of_len(QMC_PROTO_MAX_MESSAGE)
                                 : str_of(ex ? "job 17 cancelled" : "");
+        break;
+    case QMC_MSG_SHM_ATTACH:
+    case QMC_MSG_SHM_OK:
+        m->request_id = ex ? 8 : m->request_id;
+        m->u.shm.slots = mx ? QMC_PROTO_SHM_MAX_SLOTS : ex ? 8 : QMC_PROTO_SHM_MIN_SLOTS;
+        m->u.shm.slot_bytes = mx   ? QMC_PROTO_SHM_MAX_SLOT_BYTES
+                              : ex ? QMC_PROTO_CHUNK_BYTES
+                                   : QMC_PROTO_SHM_MIN_SLOT_BYTES;
+        break;
+    case QMC_MSG_POINTS_SHM_CHUNK:
+        m->request_id = ex ? 9 : m->request_id;
+        m->u.shm_chunk.first = mx ? UINT64_MAX : ex ? 4096 : 0;
+        m->u.shm_chunk.points = mx ? 1 : ex ? 4096 : 1;
+        m->u.shm_chunk.data_len = mx   ? QMC_PROTO_SHM_MAX_SLOT_BYTES
+                                  : ex ? 4096 * 32 * 8
+                                       : 4;
+        m->u.shm_chunk.slot = mx ? QMC_PROTO_SHM_MAX_SLOTS - 1 : ex ? 1 : 0;
+        break;
+    case QMC_MSG_SHM_RELEASE:
+        m->request_id = ex ? 0 : m->request_id;
+        m->u.release.slots = mx ? QMC_PROTO_SHM_MAX_SLOTS : ex ? 2 : 1;
         break;
     }
 }
@@ -438,6 +460,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
         assert_true(a->u.points.seq.seed == b->u.points.seq.seed);
         assert_true(a->u.points.seq.set_size == b->u.points.seq.set_size);
         assert_int_equal(a->u.points.format, b->u.points.format);
+        assert_int_equal(a->u.points.transport, b->u.points.transport);
         assert_true(a->u.points.start == b->u.points.start);
         assert_true(a->u.points.count == b->u.points.count);
         break;
@@ -487,6 +510,20 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_ERROR:
         assert_int_equal(a->u.error.code, b->u.error.code);
         same_str(a->u.error.message, b->u.error.message);
+        break;
+    case QMC_MSG_SHM_ATTACH:
+    case QMC_MSG_SHM_OK:
+        assert_int_equal(a->u.shm.slots, b->u.shm.slots);
+        assert_int_equal(a->u.shm.slot_bytes, b->u.shm.slot_bytes);
+        break;
+    case QMC_MSG_POINTS_SHM_CHUNK:
+        assert_true(a->u.shm_chunk.first == b->u.shm_chunk.first);
+        assert_int_equal(a->u.shm_chunk.points, b->u.shm_chunk.points);
+        assert_int_equal(a->u.shm_chunk.data_len, b->u.shm_chunk.data_len);
+        assert_int_equal(a->u.shm_chunk.slot, b->u.shm_chunk.slot);
+        break;
+    case QMC_MSG_SHM_RELEASE:
+        assert_int_equal(a->u.release.slots, b->u.release.slots);
         break;
     }
 }
@@ -594,7 +631,7 @@ static void test_bad_header(void **state)
     static const struct {
         size_t off;
         uint8_t value;
-    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 18}, {5, 255},
+    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 22}, {5, 255},
                {6, 1}, {7, 0x80}, {20, 1}, {23, 0x80}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         memcpy(frame2, frame, n);
@@ -706,7 +743,8 @@ static const mutation mutations[] = {
     {QMC_MSG_POINTS, 1, 1, 4, "scramble 4"},
     {QMC_MSG_POINTS, 2, 1, 0, "format 0"},
     {QMC_MSG_POINTS, 2, 1, 4, "format 4"},
-    {QMC_MSG_POINTS, 3, 1, 1, "reserved"},
+    {QMC_MSG_POINTS, 3, 1, 2, "transport 2"},
+    {QMC_MSG_POINTS, 3, 1, 0xff, "transport 255"},
     {QMC_MSG_POINTS, 8, 4, 2, "undefined seq flag"},
     {QMC_MSG_POINTS, 8, 4, 0x80000000u, "undefined seq flag"},
     {QMC_MSG_POINTS, 12, 4, 1, "reserved"},
@@ -768,6 +806,25 @@ static const mutation mutations[] = {
     {QMC_MSG_ERROR, 0, 4, 1, "positive code"},
     {QMC_MSG_ERROR, 4, 2, QMC_PROTO_MAX_MESSAGE + 1, "message over its limit"},
     {QMC_MSG_ERROR, 4, 2, 17, "message past the payload"},
+    {QMC_MSG_SHM_ATTACH, 0, 4, 0, "no slots"},
+    {QMC_MSG_SHM_ATTACH, 0, 4, QMC_PROTO_SHM_MIN_SLOTS - 1, "too few slots"},
+    {QMC_MSG_SHM_ATTACH, 0, 4, QMC_PROTO_SHM_MAX_SLOTS + 1, "too many slots"},
+    {QMC_MSG_SHM_ATTACH, 4, 4, QMC_PROTO_SHM_MIN_SLOT_BYTES - 4096, "slots too small"},
+    {QMC_MSG_SHM_ATTACH, 4, 4, QMC_PROTO_SHM_MAX_SLOT_BYTES + 4096, "slots too large"},
+    {QMC_MSG_SHM_ATTACH, 4, 4, QMC_PROTO_CHUNK_BYTES + 8, "slots not whole pages"},
+    {QMC_MSG_SHM_ATTACH, 8, 1, 1, "reserved"},
+    {QMC_MSG_SHM_ATTACH, 15, 1, 0x80, "reserved"},
+    {QMC_MSG_SHM_OK, 0, 4, 1, "too few slots"},
+    {QMC_MSG_SHM_OK, 12, 4, 1, "reserved"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 8, 4, 0, "no points"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 8, 4, 4097, "data not whole points"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 12, 4, 4096 * 32 * 8 + 2, "data not whole points"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 12, 4, QMC_PROTO_SHM_MAX_SLOT_BYTES + 4096,
+     "data_len over the largest slot"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 16, 4, QMC_PROTO_SHM_MAX_SLOTS, "slot past the largest ring"},
+    {QMC_MSG_POINTS_SHM_CHUNK, 20, 4, 1, "reserved"},
+    {QMC_MSG_SHM_RELEASE, 0, 4, 0, "no slots"},
+    {QMC_MSG_SHM_RELEASE, 0, 4, QMC_PROTO_SHM_MAX_SLOTS + 1, "more slots than a ring has"},
 };
 
 static void test_mutations(void **state)
@@ -906,11 +963,30 @@ static void test_encoder_refuses(void **state)
     m.u.error.code = 0;
     refuse(&m, "code 0");
 
+    build(QMC_MSG_POINTS, EXAMPLE, &m);
+    m.u.points.transport = (qmc_points_transport)2;
+    refuse(&m, "transport 2");
+    build(QMC_MSG_SHM_ATTACH, EXAMPLE, &m);
+    m.u.shm.slots = QMC_PROTO_SHM_MAX_SLOTS + 1;
+    refuse(&m, "too many slots");
+    build(QMC_MSG_SHM_OK, EXAMPLE, &m);
+    m.u.shm.slot_bytes = QMC_PROTO_SHM_MIN_SLOT_BYTES + 1;
+    refuse(&m, "a slot of no whole pages");
+    build(QMC_MSG_POINTS_SHM_CHUNK, EXAMPLE, &m);
+    m.u.shm_chunk.points = 0;
+    refuse(&m, "a chunk without points");
+    build(QMC_MSG_POINTS_SHM_CHUNK, EXAMPLE, &m);
+    m.u.shm_chunk.slot = QMC_PROTO_SHM_MAX_SLOTS;
+    refuse(&m, "slot 64");
+    build(QMC_MSG_SHM_RELEASE, EXAMPLE, &m);
+    m.u.release.slots = 0;
+    refuse(&m, "a release of nothing");
+
     build(QMC_MSG_PING, EXAMPLE, &m);
     m.type = (qmc_msg_type)0;
     refuse(&m, "type 0");
-    m.type = (qmc_msg_type)18;
-    refuse(&m, "type 18");
+    m.type = (qmc_msg_type)22;
+    refuse(&m, "type 22");
     assert_int_equal(qmc_proto_encode(NULL, frame, sizeof frame), QMC_EINVAL);
     assert_int_equal(qmc_proto_encoded_size(NULL), 0);
 
