@@ -55,12 +55,18 @@ uint64_t qmcd_stats_quantile_us(const qmcd_stats *s, double q)
 
 static const struct {
     int code;
+    char dir;
     const char *name;
 } request_names[] = {
-#define QMCD__REQ_NAME(name, code, dir) {code, "requests_" #name},
+#define QMCD__REQ_NAME(name, code, dir) {code, dir, "requests_" #name},
     QMC_MSG_MAP(QMCD__REQ_NAME)
 #undef QMCD__REQ_NAME
 };
+
+#define QMCD__REQ_FITS(name, code, dir) \
+    _Static_assert((code) < 32, "qmcd_stats.requests is indexed by message type");
+QMC_MSG_MAP(QMCD__REQ_FITS)
+#undef QMCD__REQ_FITS
 
 uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t jobs_open,
                             qmc_stat *e, uint32_t cap)
@@ -81,12 +87,10 @@ uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t j
     QMCD__PUT("connections_open", conns_open);
     QMCD__PUT("jobs_open", jobs_open);
     for (size_t i = 0; i < sizeof request_names / sizeof request_names[0]; i++) {
-        int c = request_names[i].code;
-        /* only what clients send: names are requests_HELLO, requests_PING ... */
-        if (c == QMC_MSG_HELLO || c == QMC_MSG_PING || c == QMC_MSG_POINTS ||
-            c == QMC_MSG_INTEGRATE || c == QMC_MSG_JOB_STATUS || c == QMC_MSG_JOB_CANCEL ||
-            c == QMC_MSG_STATS)
-            QMCD__PUT(request_names[i].name, s->requests[c & 31]);
+        /* only what clients send: requests_HELLO, requests_PING, ...,
+         * requests_SHM_RELEASE; a message added to the map appears here */
+        if (request_names[i].dir == 'C')
+            QMCD__PUT(request_names[i].name, s->requests[request_names[i].code & 31]);
     }
     QMCD__PUT("latency_count", s->lat_count);
     QMCD__PUT("latency_p50_us", qmcd_stats_quantile_us(s, 0.50));

@@ -862,6 +862,7 @@ def sc_stats(addr):
     st = p.stats()
     need = ["connections_accepted", "bytes_in", "bytes_out", "requests_PING",
             "requests_POINTS", "requests_INTEGRATE", "jobs_done", "errors_sent",
+            "requests_SHM_ATTACH", "requests_SHM_RELEASE",
             "latency_p50_us", "latency_p99_us", "latency_p999_us"]
     missing = [k for k in need if k not in st]
     check("STATS has the counters", not missing, "missing %r" % missing)
