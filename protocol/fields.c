@@ -1,7 +1,7 @@
 /*
  * fields.c - the field helpers every payload layout is built from (see
- * codec.h): integers, doubles, reserved bytes, enumeration codes, strings
- * and lists, each read and checked or checked and written in one place.
+ * codec.h) for strings and lists, each read and checked or checked and
+ * written in one place.  The fixed-width fields are inline in codec.h.
  *
  * No I/O, no allocation, no global state: decoded strings and lists are
  * views into the caller's buffer.
@@ -10,114 +10,6 @@
 #include <string.h>
 
 #include "codec.h"
-
-void qmc__io_invalid(qmc__io *io)
-{
-    if (io->err == 0)
-        io->err = io->decode ? QMC_EPROTO : QMC_EINVAL;
-}
-
-/* The decoder's short reads are malformed payloads: the whole frame is in
- * the buffer by then, so missing bytes mean a length field lied. */
-static int rd_ok(qmc__io *io)
-{
-    if (io->rd.bad)
-        qmc__io_invalid(io);
-    return io->err == 0;
-}
-
-void qmc__io_u16(qmc__io *io, uint16_t *v)
-{
-    if (io->decode)
-        *v = qmc__rd_u16(&io->rd);
-    else
-        qmc__wr_u16(&io->wr, *v);
-}
-
-void qmc__io_u32(qmc__io *io, uint32_t *v)
-{
-    if (io->decode)
-        *v = qmc__rd_u32(&io->rd);
-    else
-        qmc__wr_u32(&io->wr, *v);
-}
-
-void qmc__io_i32(qmc__io *io, int32_t *v)
-{
-    uint32_t u = (uint32_t)*v;
-    qmc__io_u32(io, &u);
-    /* Two's complement by arithmetic, not by an implementation-defined
-     * conversion of a large unsigned value. */
-    if (io->decode)
-        *v = u <= INT32_MAX ? (int32_t)u : -(int32_t)(~u) - 1;
-}
-
-void qmc__io_u64(qmc__io *io, uint64_t *v)
-{
-    if (io->decode)
-        *v = qmc__rd_u64(&io->rd);
-    else
-        qmc__wr_u64(&io->wr, *v);
-}
-
-void qmc__io_f64(qmc__io *io, double *v)
-{
-    uint64_t bits;
-    memcpy(&bits, v, sizeof bits);
-    qmc__io_u64(io, &bits);
-    if (io->decode)
-        memcpy(v, &bits, sizeof bits);
-}
-
-void qmc__io_f64_finite(qmc__io *io, double *v)
-{
-    qmc__io_f64(io, v);
-    if (rd_ok(io) && !isfinite(*v))
-        qmc__io_invalid(io);
-}
-
-void qmc__io_zero(qmc__io *io, size_t n)
-{
-    if (!io->decode) {
-        uint8_t *p = qmc__wr_take(&io->wr, n);
-        if (p)
-            memset(p, 0, n);
-        return;
-    }
-    const uint8_t *p = qmc__rd_take(&io->rd, n);
-    if (!rd_ok(io))
-        return;
-    for (size_t i = 0; i < n; i++)
-        if (p[i] != 0)
-            qmc__io_invalid(io);
-}
-
-void qmc__io_code8(qmc__io *io, uint32_t *v, int (*ok)(uint32_t))
-{
-    if (io->decode) {
-        *v = qmc__rd_u8(&io->rd);
-        if (rd_ok(io) && !ok(*v))
-            qmc__io_invalid(io);
-        return;
-    }
-    if (*v > 255 || !ok(*v)) {
-        qmc__io_invalid(io);
-        return;
-    }
-    qmc__wr_u8(&io->wr, (uint8_t)*v);
-}
-
-void qmc__io_bool(qmc__io *io, int *v)
-{
-    if (io->decode) {
-        uint8_t b = qmc__rd_u8(&io->rd);
-        if (rd_ok(io) && b > 1)
-            qmc__io_invalid(io);
-        *v = b;
-        return;
-    }
-    qmc__wr_u8(&io->wr, *v != 0);
-}
 
 /* RFC 3629: no overlong forms, no surrogates, nothing past U+10FFFF. */
 int qmc__utf8_ok(const uint8_t *p, size_t n)
@@ -169,12 +61,12 @@ void qmc__io_str(qmc__io *io, qmc_str *s, uint32_t max, int flags)
         uint32_t len = len32 ? qmc__rd_u32(&io->rd) : qmc__rd_u16(&io->rd);
         /* The limit first, so a hostile length is refused before the
          * cursor is asked for that many bytes. */
-        if (rd_ok(io) && len > max)
+        if (qmc__io_rd_ok(io) && len > max)
             qmc__io_invalid(io);
         if (io->err)
             return;
         const uint8_t *p = qmc__rd_take(&io->rd, len);
-        if (!rd_ok(io))
+        if (!qmc__io_rd_ok(io))
             return;
         if ((flags & QMC__STR_TEXT) && !qmc__utf8_ok(p, len)) {
             qmc__io_invalid(io);
@@ -219,12 +111,12 @@ void qmc__io_f64s(qmc__io *io, qmc_f64s *list, uint32_t max, int finite)
 {
     if (io->decode) {
         uint32_t count = qmc__rd_u32(&io->rd);
-        if (rd_ok(io) && count > max)
+        if (qmc__io_rd_ok(io) && count > max)
             qmc__io_invalid(io);
         if (io->err)
             return;
         const uint8_t *raw = qmc__rd_take(&io->rd, (size_t)count * 8);
-        if (!rd_ok(io))
+        if (!qmc__io_rd_ok(io))
             return;
         for (uint32_t i = 0; finite && i < count; i++)
             if (!isfinite(qmc__load_f64(raw + 8 * (size_t)i))) {
@@ -262,7 +154,7 @@ void qmc__io_blob(qmc__io *io, const uint8_t **data, uint32_t len)
 {
     if (io->decode) {
         const uint8_t *p = qmc__rd_take(&io->rd, len);
-        if (rd_ok(io))
+        if (qmc__io_rd_ok(io))
             *data = len ? p : NULL;
         return;
     }
