@@ -29,7 +29,7 @@
 
 static void record(qmcd_conn *c, int64_t t0_us)
 {
-    qmcd_stats_latency(&c->srv->stats, qmcd_now_us() - t0_us);
+    qmcd_answered(c->srv, t0_us);
 }
 
 static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)

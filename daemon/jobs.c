@@ -488,7 +488,7 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         job_state_msg(j, m->request_id, &r);
         qmcd_conn_send(c, &r);
     }
-    qmcd_stats_latency(&c->srv->stats, qmcd_now_us() - t0_us);
+    qmcd_answered(c->srv, t0_us);
 }
 
 void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
@@ -510,7 +510,7 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         }
         qmcd_conn_send(c, &r);
     }
-    qmcd_stats_latency(&c->srv->stats, qmcd_now_us() - t0_us);
+    qmcd_answered(c->srv, t0_us);
 }
 
 /* Queues the final answer of a finished job.  Returns 0, or -1 without
@@ -563,7 +563,7 @@ static int answer(qmcd_conn *c, qmcd_job *j)
         rc = qmcd_conn_send(c, &r);
     }
     if (rc == 0)
-        qmcd_stats_latency(&srv->stats, qmcd_now_us() - j->t0_us);
+        qmcd_answered(srv, j->t0_us);
     return 0; /* sent, or the connection is gone: either way it is done */
 }
 

@@ -37,6 +37,12 @@ int64_t qmcd_now_ms(void)
     return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
 }
 
+void qmcd_answered(qmcd_server *srv, int64_t t0_us)
+{
+    if (qmcd_stats_answered(&srv->stats, t0_us))
+        qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
+}
+
 int64_t qmcd_now_us(void)
 {
     struct timespec ts;
@@ -208,6 +214,8 @@ int qmcd_loop_run(qmcd_server *srv)
         /* Handlers may free connections; deferred frees happen here, after
          * every event of this round has been dispatched. */
         qmcd_conns_reap(srv);
+        if (srv->stats.n_pending)
+            qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
     }
     return 0;
 }

@@ -34,6 +34,19 @@ void qmcd_stats_latency(qmcd_stats *s, int64_t micros)
     s->lat_count++;
 }
 
+int qmcd_stats_answered(qmcd_stats *s, int64_t t0_us)
+{
+    s->pending[s->n_pending++] = t0_us;
+    return s->n_pending == QMCD_LAT_PENDING;
+}
+
+void qmcd_stats_end_turn(qmcd_stats *s, int64_t now_us)
+{
+    for (uint32_t i = 0; i < s->n_pending; i++)
+        qmcd_stats_latency(s, now_us - s->pending[i]);
+    s->n_pending = 0;
+}
+
 uint64_t qmcd_stats_quantile_us(const qmcd_stats *s, double q)
 {
     if (s->lat_count == 0)

@@ -30,6 +30,10 @@
     X(jobs_timed_out, "jobs_timed_out")                     \
     X(reloads, "config_reloads")
 
+/* Requests answered in one loop turn whose latency is recorded when the
+ * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
+#define QMCD_LAT_PENDING 256
+
 /* Latency buckets: 8 per power of two of microseconds, up to 2^40 us. */
 #define QMCD_LAT_SUB 8
 #define QMCD_LAT_BUCKETS (41 * QMCD_LAT_SUB)
@@ -41,11 +45,23 @@ typedef struct qmcd_stats {
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;
+    int64_t pending[QMCD_LAT_PENDING]; /* start times answered this loop turn */
+    uint32_t n_pending;
 } qmcd_stats;
 
 /* Records one request's handling time, from its frame being decoded to its
  * final answer being queued. */
 void qmcd_stats_latency(qmcd_stats *s, int64_t micros);
+
+/*
+ * A request answered now, received at t0_us: its latency ends with the
+ * current loop turn.  Returns 1 when the pending list is full and the
+ * caller must call qmcd_stats_end_turn before the next one.
+ */
+int qmcd_stats_answered(qmcd_stats *s, int64_t t0_us);
+
+/* Records every pending request's latency as now_us - its start. */
+void qmcd_stats_end_turn(qmcd_stats *s, int64_t now_us);
 
 /* The latency below which a fraction q (0..1) of requests fell: the upper
  * edge of the bucket holding that rank, 0 with no requests. */
