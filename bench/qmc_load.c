@@ -850,6 +850,17 @@ static long rss_kib(long pid)
     return kib;
 }
 
+/* The daemon's VmRSS after a stream, once its loop has had a moment to
+ * flush and free after END; -1 without --rss-pid. */
+static long rss_settled(const opts *o)
+{
+    if (!o->rss_pid)
+        return -1;
+    struct timespec ts = {0, 100 * 1000000L};
+    nanosleep(&ts, NULL);
+    return rss_kib(o->rss_pid);
+}
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -966,13 +977,7 @@ static int run_bulk(const opts *o)
             return 1;
         }
     }
-    long rss_after = -1;
-    if (o->rss_pid) {
-        /* Give the loop a moment to flush and free after END. */
-        struct timespec ts = {0, 100 * 1000000L};
-        nanosleep(&ts, NULL);
-        rss_after = rss_kib(o->rss_pid);
-    }
+    long rss_after = rss_settled(o);
     close(fd);
     free(buf);
     print_rate("bulk", o, secs, runs, want_bytes);
@@ -1039,12 +1044,7 @@ static int run_bulk_shm(const opts *o)
             return 1;
         }
     }
-    long rss_after = -1;
-    if (o->rss_pid) {
-        struct timespec ts = {0, 100 * 1000000L};
-        nanosleep(&ts, NULL);
-        rss_after = rss_kib(o->rss_pid);
-    }
+    long rss_after = rss_settled(o);
     qmc_client_close(c);
     print_rate("bulk-shm", o, secs, runs, (uint64_t)o->count * row);
     printf(" frames=%llu slots=%u slot_bytes=%u rss_before_kib=%ld rss_peak_kib=%ld "

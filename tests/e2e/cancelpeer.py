@@ -21,7 +21,8 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from qmcpeer import (ECANCELED, ESHUTDOWN, ETIMEDOUT, FAILED, MSG, Peer,  # noqa: E402
+import qmcpeer  # noqa: E402
+from qmcpeer import (ECANCELED, ESHUTDOWN, ETIMEDOUT, MSG, Peer,  # noqa: E402
                      check, frame)
 
 # Jobs of seconds that stop only on their budget, as (heavy, light) with
@@ -158,16 +159,5 @@ def sc_sigterm(addr, method, marker):
 SCENARIOS = dict(race=sc_race, timelimit=sc_timelimit, sigterm=sc_sigterm)
 
 
-def main(argv):
-    if len(argv) < 3 or argv[1] not in SCENARIOS:
-        sys.stderr.write("usage: cancelpeer.py {%s} ADDR [ARGS...]\n" % ",".join(SCENARIOS))
-        return 2
-    try:
-        SCENARIOS[argv[1]](*argv[2:])
-    except Exception as e:  # one line, counted as a failure
-        check(argv[1], False, "%s: %s" % (type(e).__name__, e))
-    return 1 if FAILED else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "cancelpeer.py"))

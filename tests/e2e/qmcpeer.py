@@ -1113,12 +1113,15 @@ SCENARIOS = dict(hello=sc_hello, points=sc_points, points_error=sc_points_error,
                  stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits)
 
 
-def main(argv):
-    if len(argv) < 3 or argv[1] not in SCENARIOS:
-        sys.stderr.write("usage: qmcpeer.py {%s} ADDR [ARGS...]\n" % ",".join(SCENARIOS))
+def main(argv, scenarios=None, prog="qmcpeer.py"):
+    """Runs scenario argv[1] with the rest of argv; other peers (cancelpeer.py)
+    pass their own scenarios and share the checks."""
+    scenarios = SCENARIOS if scenarios is None else scenarios
+    if len(argv) < 3 or argv[1] not in scenarios:
+        sys.stderr.write("usage: %s {%s} ADDR [ARGS...]\n" % (prog, ",".join(scenarios)))
         return 2
     try:
-        SCENARIOS[argv[1]](*argv[2:])
+        scenarios[argv[1]](*argv[2:])
     except Exception as e:  # one line, counted as a failure
         check(argv[1], False, "%s: %s" % (type(e).__name__, e))
     return 1 if FAILED else 0
