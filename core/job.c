@@ -12,6 +12,7 @@ struct qmc_job {
     qmc_scene_job *scene;     /* integrand.ctx points into it: heap, never moved */
     double reference;
     int has_reference, reference_exact;
+    int reference_done;       /* scenes: computed by the first qmc_job_reference */
 };
 
 void qmc_job_spec_init(qmc_job_spec *spec)
@@ -93,13 +94,8 @@ static int make_scene(const qmc_job_spec *s, qmc_job *job, qmc__msg *why)
                               job->scene, why->buf, why->cap);
     if (err)
         return err;
-    double ref = 0, ref_err = 0;
-    int exact = 0;
-    if (qmc_scene_reference(&job->scene->scene, &ref, &ref_err, &exact) == 0) {
-        job->has_reference = 1;
-        job->reference_exact = exact;
-        job->reference = ref;
-    }
+    /* The reference waits for qmc_job_reference: it can cost a second of
+     * quadrature, which the daemon's loop thread must not spend here. */
     return 0;
 }
 
@@ -134,6 +130,7 @@ int qmc_job_new(const qmc_job_spec *s, qmc_job **out, char *why, size_t why_byte
             const qmc_integrand *f = qmc_testfn_integrand(job->fn);
             job->has_reference = job->reference_exact = f->has_exact;
             job->reference = f->exact;
+            job->reference_done = 1;
         }
         if (!err && s->control[0]) {
             err = make_testfn(s, s->control, &job->control, &m);
@@ -177,8 +174,18 @@ int qmc_job_is_scene(const qmc_job *job)
     return job->scene != NULL;
 }
 
-int qmc_job_reference(const qmc_job *job, double *value, int *exact)
+int qmc_job_reference(qmc_job *job, double *value, int *exact)
 {
+    if (!job->reference_done && job->scene) {
+        double ref = 0, ref_err = 0;
+        int ex = 0;
+        if (qmc_scene_reference(&job->scene->scene, &ref, &ref_err, &ex) == 0) {
+            job->has_reference = 1;
+            job->reference_exact = ex;
+            job->reference = ref;
+        }
+    }
+    job->reference_done = 1;
     *value = job->reference;
     *exact = job->reference_exact;
     return job->has_reference ? 0 : QMC_ENOTSUP;

@@ -65,6 +65,8 @@ struct qmcd_job {
     char why[256];
     qmc_integrate_report rep;
     double seconds;
+    double reference;            /* qmc_job_reference, taken on the worker */
+    int reference_kind;          /* 0 none, 1 exact, 2 high-accuracy */
     int finished;                /* loop: the worker is done with it */
 };
 
@@ -210,6 +212,11 @@ static void run_job(qmcd_job *j)
     } else {
         atomic_store(&j->state, QMC_JOB_RUNNING);
         j->err = qmc_job_run(j->job, &j->spec, run_blocks, j, &j->rep, j->why, sizeof j->why);
+        /* A scene's reference is a quadrature of its own: here, on the
+         * worker, never on the loop thread that answers. */
+        int exact = 0;
+        if (!j->err && qmc_job_reference(j->job, &j->reference, &exact) == 0)
+            j->reference_kind = exact ? 1 : 2;
     }
     j->seconds = seconds_since(atomic_load(&j->start_ms));
     int cancel = atomic_load(&j->cancel);
@@ -550,12 +557,8 @@ static int answer(qmcd_conn *c, qmcd_job *j)
         res->method_used = j->rep.method_used;
         res->sampling = j->rep.sampling;
         res->seconds = j->seconds;
-        double ref = 0;
-        int exact = 0;
-        if (qmc_job_reference(j->job, &ref, &exact) == 0) {
-            res->reference_kind = exact ? 1 : 2;
-            res->reference = ref;
-        }
+        res->reference_kind = j->reference_kind;
+        res->reference = j->reference_kind ? j->reference : 0;
         res->detail.ptr = j->rep.detail;
         res->detail.len = (uint32_t)strnlen(j->rep.detail, sizeof j->rep.detail);
         res->auto_reason.ptr = j->rep.auto_reason;

@@ -63,9 +63,11 @@ int qmc_job_is_scene(const qmc_job *job);
 
 /* The exact value (*exact = 1) or, for scenes without a closed form, a
  * high-accuracy reference (*exact = 0).  Returns 0, or QMC_ENOTSUP when
- * there is neither. */
-QMC_MUST_CHECK int qmc_job_reference(const qmc_job *job, double *value,
-                                     int *exact);
+ * there is neither.  A scene's reference is computed on the first call (a
+ * quadrature of up to tens of millions of evaluations, so qmc_job_new
+ * stays cheap enough for an event loop) and kept: the first call writes to
+ * job, so it must not race with another call on the same job. */
+QMC_MUST_CHECK int qmc_job_reference(qmc_job *job, double *value, int *exact);
 
 /* Runs the job's integrate spec (qmc_integrate). */
 QMC_MUST_CHECK int qmc_job_run(const qmc_job *job, const qmc_integrate_spec *spec,
