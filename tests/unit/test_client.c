@@ -172,9 +172,11 @@ static void fake_bad(fake *f, const char *what)
 }
 
 /* Reads one request; returns 0 or -1 (peer gone / malformed).  Views in
- * *m stay valid until the next read. */
-static int srv_read(fake *f, int fd, qmc_msg *m)
+ * *m stay valid until the next read.  A descriptor passed beside the bytes
+ * goes to *pass_fd (-1 when none came). */
+static int srv_read_fd(fake *f, int fd, qmc_msg *m, int *pass_fd)
 {
+    *pass_fd = -1;
     memmove(f->in, f->in + f->in_used, f->in_len - f->in_used);
     f->in_len -= f->in_used;
     f->in_used = 0;
@@ -186,11 +188,38 @@ static int srv_read(fake *f, int fd, qmc_msg *m)
         }
         if (n != QMC_EAGAIN)
             return -1;
-        ssize_t r = read(fd, f->in + f->in_len, sizeof f->in - f->in_len);
+        union {
+            struct cmsghdr align;
+            char bytes[CMSG_SPACE(sizeof(int))];
+        } ctl;
+        struct iovec iov = {f->in + f->in_len, sizeof f->in - f->in_len};
+        struct msghdr mh;
+        memset(&mh, 0, sizeof mh);
+        mh.msg_iov = &iov;
+        mh.msg_iovlen = 1;
+        mh.msg_control = ctl.bytes;
+        mh.msg_controllen = sizeof ctl.bytes;
+        ssize_t r = recvmsg(fd, &mh, MSG_CMSG_CLOEXEC);
         if (r <= 0)
             return -1;
+        for (struct cmsghdr *cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm))
+            if (cm->cmsg_level == SOL_SOCKET && cm->cmsg_type == SCM_RIGHTS)
+                memcpy(pass_fd, CMSG_DATA(cm), sizeof(int));
         f->in_len += (size_t)r;
     }
+}
+
+/* srv_read_fd for scripts that expect no descriptor: one that comes is
+ * closed and noted. */
+static int srv_read(fake *f, int fd, qmc_msg *m)
+{
+    int pfd;
+    int rc = srv_read_fd(f, fd, m, &pfd);
+    if (pfd >= 0) {
+        close(pfd);
+        fake_bad(f, "a descriptor came with a frame that carries none");
+    }
+    return rc;
 }
 
 static int write_all(int fd, const void *buf, size_t n)
@@ -755,43 +784,6 @@ static void test_jobs(void **state)
 
 static void script_hello_ping(fake *f, int fd);
 static void script_hello_ping_tail(fake *f, int fd);
-
-/* As srv_read, with recvmsg: a descriptor passed beside the bytes goes to
- * *pass_fd (-1 when none came). */
-static int srv_read_fd(fake *f, int fd, qmc_msg *m, int *pass_fd)
-{
-    *pass_fd = -1;
-    memmove(f->in, f->in + f->in_used, f->in_len - f->in_used);
-    f->in_len -= f->in_used;
-    f->in_used = 0;
-    for (;;) {
-        int n = qmc_proto_decode(f->in, f->in_len, QMC_PROTO_MAX_PAYLOAD, m);
-        if (n > 0) {
-            f->in_used = (size_t)n;
-            return 0;
-        }
-        if (n != QMC_EAGAIN)
-            return -1;
-        union {
-            struct cmsghdr align;
-            char bytes[CMSG_SPACE(sizeof(int))];
-        } ctl;
-        struct iovec iov = {f->in + f->in_len, sizeof f->in - f->in_len};
-        struct msghdr mh;
-        memset(&mh, 0, sizeof mh);
-        mh.msg_iov = &iov;
-        mh.msg_iovlen = 1;
-        mh.msg_control = ctl.bytes;
-        mh.msg_controllen = sizeof ctl.bytes;
-        ssize_t r = recvmsg(fd, &mh, MSG_CMSG_CLOEXEC);
-        if (r <= 0)
-            return -1;
-        for (struct cmsghdr *cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm))
-            if (cm->cmsg_level == SOL_SOCKET && cm->cmsg_type == SCM_RIGHTS)
-                memcpy(pass_fd, CMSG_DATA(cm), sizeof(int));
-        f->in_len += (size_t)r;
-    }
-}
 
 /* Expects SHM_ATTACH with a descriptor of the given geometry, checks the
  * memfd as qmcd would (sealed, long enough, populated) and maps it.
