@@ -318,13 +318,9 @@ static double tolerance(const qmc_cubature_opts *o, double est)
 /* The interrupt hook fired: no estimate, only the evaluations spent. */
 static int cancelled(const cub_state *s, qmc__msg *m, qmc_result *res)
 {
-    qmc_result_init(res);
-    res->error_kind = QMC_ERROR_ESTIMATE;
-    res->dims = s->d;
-    res->evals = s->evals;
     qmc__msg_set(m, "cubature: stopped by the interrupt hook after ", s->evals,
                  " evaluations");
-    return QMC_ECANCELED;
+    return qmc__cancelled(res, s->d, s->evals);
 }
 
 int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,

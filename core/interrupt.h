@@ -17,7 +17,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "qmc/error.h"
 #include "qmc/integrand.h"
+#include "qmc/result.h"
 #include "qmc/sampling.h"
 
 typedef struct qmc__poll {
@@ -32,6 +34,18 @@ static inline void qmc__poll_init(qmc__poll *p, const qmc_interrupt *hook)
     p->fn = hook ? hook->fn : NULL;
     p->ctx = hook ? hook->ctx : NULL;
     p->work = 0;
+}
+
+/* The hook fired: *res is reset to hold no estimate, only the dimensions
+ * and the evaluations spent (the quadrature methods' common answer).
+ * Returns QMC_ECANCELED. */
+static inline int qmc__cancelled(qmc_result *res, uint32_t dims, uint64_t evals)
+{
+    qmc_result_init(res);
+    res->error_kind = QMC_ERROR_ESTIMATE;
+    res->dims = dims;
+    res->evals = evals;
+    return QMC_ECANCELED;
 }
 
 /* Calls the hook now.  Returns 1 when it asks to stop. */

@@ -297,11 +297,7 @@ static double tolerance(const qmc_quad_gk_opts *o, double area)
 /* The interrupt hook fired: no estimate, only the evaluations spent. */
 static int cancelled(const gk_state *s, qmc_result *res)
 {
-    qmc_result_init(res);
-    res->error_kind = QMC_ERROR_ESTIMATE;
-    res->dims = 1;
-    res->evals = s->evals;
-    return QMC_ECANCELED;
+    return qmc__cancelled(res, 1, s->evals);
 }
 
 int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,

@@ -165,14 +165,9 @@ static void budget_reason(qmc__msg *m, qmc_rule1d rule, uint32_t n,
 /* The interrupt hook fired: no estimate, only the evaluations spent. */
 static int cancelled(qmc__msg *m, qmc_result *res, uint64_t evals)
 {
-    uint32_t dims = res->dims;
-    qmc_result_init(res);
-    res->error_kind = QMC_ERROR_ESTIMATE;
-    res->dims = dims;
-    res->evals = evals;
     qmc__msg_set(m, "tensor: stopped by the interrupt hook after ", evals,
                  " evaluations");
-    return QMC_ECANCELED;
+    return qmc__cancelled(res, res->dims, evals);
 }
 
 int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
