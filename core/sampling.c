@@ -18,7 +18,10 @@
 #include "neumaier.h"
 #include "sampling_impl.h"
 
-enum { TAG_REPLICATE = 0x72657073 /* "reps" */ };
+enum {
+    TAG_REPLICATE = 0x72657073, /* "reps" */
+    CHUNK_MAX = 256             /* points per integrand call, at most */
+};
 
 void qmc_sampling_spec_init(qmc_sampling_spec *spec, qmc_sampler sampler)
 {
@@ -161,7 +164,7 @@ int qmc_sampling_job_new(const qmc_sampling_spec *spec, const qmc_integrand *f,
     job->blocks_per_rep = (spec->n + QMC_SAMPLING_BLOCK - 1) / QMC_SAMPLING_BLOCK;
     /* Points per integrand call: 256, fewer for very wide points so the
      * workspace stays near 2 MiB. */
-    job->chunk = f->dims <= 1024 ? 256 : (uint32_t)(262144 / f->dims) + 1;
+    job->chunk = f->dims <= 1024 ? CHUNK_MAX : (uint32_t)(262144 / f->dims) + 1;
     job->seqs = calloc(spec->reps, sizeof *job->seqs);
     if (!job->seqs)
         goto nomem;
@@ -256,17 +259,49 @@ uint64_t qmc_sampling_fingerprint(const qmc_sampling_job *job)
     return h;
 }
 
-/* Inserts v into the descending top list if it belongs there. */
+/* Inserts v into the descending top list if it belongs there: after the
+ * last entry not below it (a binary search, then one move; a heavy-tailed
+ * or sorted stream inserts often). */
 static void top_insert(double *top, double v)
 {
     if (!(v > top[QMC_SAMPLING_TOP - 1]))
         return;
-    int i = QMC_SAMPLING_TOP - 1;
-    while (i > 0 && top[i - 1] < v) {
-        top[i] = top[i - 1];
-        i--;
+    size_t lo = 0, hi = QMC_SAMPLING_TOP - 1; /* top[hi] < v; find the first such */
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (top[mid] < v)
+            hi = mid;
+        else
+            lo = mid + 1;
     }
-    top[i] = v;
+    memmove(top + lo + 1, top + lo, (QMC_SAMPLING_TOP - 1 - lo) * sizeof *top);
+    top[lo] = v;
+}
+
+static int cmp_descending(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x < y) - (x > y);
+}
+
+/* Adds the |f| of a chunk to the top list.  Inserting one by one costs a
+ * search and a move per newcomer, and a block's first chunks bring
+ * hundreds; so gather the chunk's newcomers, sort them, and merge. */
+static void top_add_chunk(double *top, const double *fv, size_t m)
+{
+    double cand[CHUNK_MAX], merged[QMC_SAMPLING_TOP];
+    const double low = top[QMC_SAMPLING_TOP - 1];
+    size_t c = 0;
+    for (size_t k = 0; k < m; k++)
+        if (fabs(fv[k]) > low)
+            cand[c++] = fabs(fv[k]);
+    if (c == 0)
+        return;
+    qsort(cand, c, sizeof *cand, cmp_descending);
+    size_t i = 0, j = 0; /* i + j = o < QMC_SAMPLING_TOP: top[i] exists */
+    for (size_t o = 0; o < QMC_SAMPLING_TOP; o++)
+        merged[o] = j < c && cand[j] > top[i] ? cand[j++] : top[i++];
+    memcpy(top, merged, sizeof merged);
 }
 
 void qmc__top_merge(double *a, const double *b)
@@ -297,6 +332,97 @@ void qmc__moments_merge(qmc_sampling_sums *a, const qmc_sampling_sums *b)
     a->c_fg += b->c_fg + df * dg * w;
 }
 
+/* Adds one point the slow way: any point of a chunk holding a non-finite
+ * value.  Welford's update is Chan's merge with a block of one. */
+static void add_point(qmc_sampling_sums *out, uint64_t *finite, double fx, double gx)
+{
+    out->count++;
+    if (!isfinite(fx) || !isfinite(gx)) {
+        out->nonfinite++;
+        return;
+    }
+    qmc__sum_add(out->f, fx);
+    qmc__sum_add(out->absf, fabs(fx));
+    qmc__sum_add(out->g, gx);
+    ++*finite;
+    double df = fx - out->mean_f, dg = gx - out->mean_g;
+    out->mean_f += df / (double)*finite;
+    out->mean_g += dg / (double)*finite;
+    out->m2_f += df * (fx - out->mean_f);
+    out->m2_g += dg * (gx - out->mean_g);
+    out->c_fg += df * (gx - out->mean_g);
+    top_insert(out->top, fabs(fx));
+}
+
+static int all_finite(const double *v, size_t m)
+{
+    int ok = 1;
+    for (size_t k = 0; k < m; k++)
+        ok &= isfinite(v[k]) != 0;
+    return ok;
+}
+
+/* Sum of v[0 .. m) in four interleaved chains (a fixed order, so the same
+ * bits every run; the chains let the adds overlap). */
+static double sum4(const double *v, size_t m)
+{
+    double a[4] = {0, 0, 0, 0};
+    size_t k = 0;
+    for (; k + 4 <= m; k += 4)
+        for (int l = 0; l < 4; l++)
+            a[l] += v[k + (size_t)l];
+    for (; k < m; k++)
+        a[0] += v[k];
+    return (a[0] + a[1]) + (a[2] + a[3]);
+}
+
+/* Adds a chunk of m finite values f (and the control's values less its
+ * integral, g, when not NULL).  The Neumaier sums run in index order, as add_point's do;
+ * the moments are the chunk's own, two-pass, merged by Chan's update.
+ * Welford's per-point division was the block loop's critical path (two
+ * thirds of an rqmc job's time on a cheap integrand). */
+static void add_finite_chunk(qmc_sampling_sums *out, uint64_t *finite, const double *fv,
+                             const double *gv, size_t m)
+{
+    /* Local copies: through out the sums would make a store-to-load
+     * round trip per point, as the compiler cannot rule out aliasing. */
+    double sf[2] = {out->f[0], out->f[1]}, sa[2] = {out->absf[0], out->absf[1]};
+    for (size_t k = 0; k < m; k++) {
+        qmc__sum_add(sf, fv[k]);
+        qmc__sum_add(sa, fabs(fv[k]));
+    }
+    memcpy(out->f, sf, sizeof sf);
+    memcpy(out->absf, sa, sizeof sa);
+    top_add_chunk(out->top, fv, m);
+    qmc_sampling_sums c = {.count = m};
+    c.mean_f = sum4(fv, m) / (double)m;
+    double m2[4] = {0, 0, 0, 0};
+    size_t k = 0;
+    for (; k + 4 <= m; k += 4)
+        for (int l = 0; l < 4; l++) {
+            double e = fv[k + (size_t)l] - c.mean_f;
+            m2[l] += e * e;
+        }
+    for (; k < m; k++)
+        m2[0] += (fv[k] - c.mean_f) * (fv[k] - c.mean_f);
+    c.m2_f = (m2[0] + m2[1]) + (m2[2] + m2[3]);
+    if (gv) {
+        double sg[2] = {out->g[0], out->g[1]};
+        for (k = 0; k < m; k++)
+            qmc__sum_add(sg, gv[k]);
+        memcpy(out->g, sg, sizeof sg);
+        c.mean_g = sum4(gv, m) / (double)m;
+        for (k = 0; k < m; k++) {
+            double eg = gv[k] - c.mean_g;
+            c.m2_g += eg * eg;
+            c.c_fg += (fv[k] - c.mean_f) * eg;
+        }
+    }
+    qmc__moments_merge(out, &c);
+    out->count += m;
+    *finite += m;
+}
+
 int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
                            size_t workspace_bytes, qmc_sampling_sums *out)
 {
@@ -314,8 +440,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     const uint32_t d = job->dims;
     double *x = workspace;
     double *fv = x + (size_t)job->chunk * d;
-    double *gv = fv + job->chunk;
-    const double mu_g = job->g ? job->g->exact : 0.0;
+    double *gv = job->g ? fv + job->chunk : NULL;
     uint64_t finite = 0;
     for (uint64_t i0 = first; i0 < end; i0 += job->chunk) {
         size_t m = end - i0 < job->chunk ? (size_t)(end - i0) : job->chunk;
@@ -323,28 +448,17 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
         if (err)
             return err;
         job->f->eval(job->f->ctx, x, m, d, fv);
-        if (job->g)
+        if (gv) {
             job->g->eval(job->g->ctx, x, m, d, gv);
-        for (size_t k = 0; k < m; k++) {
-            double fx = fv[k], gx = job->g ? gv[k] - mu_g : 0.0;
-            out->count++;
-            if (!isfinite(fx) || !isfinite(gx)) {
-                out->nonfinite++;
-                continue;
-            }
-            qmc__sum_add(out->f, fx);
-            qmc__sum_add(out->absf, fabs(fx));
-            qmc__sum_add(out->g, gx);
-            /* Welford: stable running moments, in index order. */
-            finite++;
-            double df = fx - out->mean_f, dg = gx - out->mean_g;
-            out->mean_f += df / (double)finite;
-            out->mean_g += dg / (double)finite;
-            out->m2_f += df * (fx - out->mean_f);
-            out->m2_g += dg * (gx - out->mean_g);
-            out->c_fg += df * (gx - out->mean_g);
-            top_insert(out->top, fabs(fx));
+            for (size_t k = 0; k < m; k++)
+                gv[k] -= job->g->exact;
         }
+        if (all_finite(fv, m) && (!gv || all_finite(gv, m))) {
+            add_finite_chunk(out, &finite, fv, gv, m);
+            continue;
+        }
+        for (size_t k = 0; k < m; k++)
+            add_point(out, &finite, fv[k], gv ? gv[k] : 0.0);
     }
     return 0;
 }
