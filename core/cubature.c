@@ -71,6 +71,7 @@ typedef struct cub_state {
     double *pf;       /* CUB_CHUNK values */
     int32_t *tag;     /* CUB_CHUNK tags */
     double *axis;     /* 4d axis values of the region being evaluated */
+    double *corner_pick; /* its corners' two coordinates per axis, 2d */
     double *pool;     /* max_regions records of (2 + 2d) doubles */
     uint32_t *split;  /* axis to split each region along */
     uint32_t *heap;   /* region indices, max-heap on error */
@@ -105,7 +106,7 @@ static int layout(uint32_t dims, size_t *fixed, size_t *per)
     size_t d = dims;
     if (d == 0 || d > (SIZE_MAX / sizeof(double) - CUB_CHUNK) / (CUB_CHUNK + 8))
         return -1;
-    *fixed = ((size_t)CUB_CHUNK * d + CUB_CHUNK + 4 * d) * sizeof(double)
+    *fixed = ((size_t)CUB_CHUNK * d + CUB_CHUNK + 6 * d) * sizeof(double)
              + CUB_CHUNK * sizeof(int32_t);
     *per = (2 + 2 * d) * sizeof(double) + 2 * sizeof(uint32_t);
     return 0;
@@ -150,38 +151,51 @@ static void flush(cub_state *s)
     }
     s->f->eval(s->f->ctx, s->px, s->fill, s->d, s->pf);
     s->evals += s->fill;
+    /* The sums in locals: through s, every axis store could alias them
+     * and they would make a memory round trip per point. */
+    cub_sum pairs = s->pairs, corners = s->corners;
+    uint64_t nonfinite = 0;
     for (size_t i = 0; i < s->fill; i++) {
         double v = s->pf[i];
-        if (!isfinite(v))
-            s->nonfinite++;
+        nonfinite += !isfinite(v);
         switch (s->tag[i]) {
         case TAG_CENTER:
             s->val0 = v;
             break;
         case TAG_PAIR:
-            sum_add(&s->pairs, v);
+            sum_add(&pairs, v);
             break;
         case TAG_CORNER:
-            sum_add(&s->corners, v);
+            sum_add(&corners, v);
             break;
         default:
             s->axis[s->tag[i]] = v;
             break;
         }
     }
+    s->pairs = pairs;
+    s->corners = corners;
+    s->nonfinite += nonfinite;
     if (qmc__poll_work(&s->poll, s->fill))
         s->stopped = 1;
     s->fill = 0;
 }
 
-/* A fresh chunk row holding the center c, to be moved along some axes. */
-static double *next_point(cub_state *s, const double *c, int32_t tag)
+/* A fresh chunk row, its coordinates the caller's to write. */
+static double *next_row(cub_state *s, int32_t tag)
 {
     if (s->fill == CUB_CHUNK)
         flush(s);
     double *x = s->px + s->fill * s->d;
-    memcpy(x, c, s->d * sizeof(double));
     s->tag[s->fill++] = tag;
+    return x;
+}
+
+/* A fresh chunk row holding the center c, to be moved along some axes. */
+static double *next_point(cub_state *s, const double *c, int32_t tag)
+{
+    double *x = next_row(s, tag);
+    memcpy(x, c, s->d * sizeof(double));
     return x;
 }
 
@@ -248,12 +262,19 @@ static void apply_rule(cub_state *s, uint32_t r)
             }
         }
     }
-    /* d < 64 here: the caller checked 2^d against the budget. */
+    /* d < 64 here: the caller checked 2^d against the budget.  Each
+     * corner picks, axis by axis, one of two coordinates worked out once
+     * (the same values clamp01 gave point by point). */
+    double *pick = s->corner_pick; /* axis j: low 2j, high 2j + 1 */
+    for (uint32_t j = 0; j < d; j++) {
+        pick[2 * j] = clamp01(c[j] - l5 * h[j]);
+        pick[2 * j + 1] = clamp01(c[j] + l5 * h[j]);
+    }
     uint64_t ncorner = (uint64_t)1 << d;
     for (uint64_t k = 0; k < ncorner && !s->stopped; k++) {
-        double *x = next_point(s, c, TAG_CORNER);
+        double *x = next_row(s, TAG_CORNER);
         for (uint32_t j = 0; j < d; j++)
-            x[j] = clamp01(c[j] + ((k >> j) & 1 ? l5 : -l5) * h[j]);
+            x[j] = pick[2 * j + ((k >> j) & 1)];
     }
     flush(s);
     if (s->stopped)
@@ -378,7 +399,8 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
     s.px = workspace;
     s.pf = s.px + (size_t)CUB_CHUNK * d;
     s.axis = s.pf + CUB_CHUNK;
-    s.pool = s.axis + 4 * (size_t)d;
+    s.corner_pick = s.axis + 4 * (size_t)d;
+    s.pool = s.corner_pick + 2 * (size_t)d;
     s.tag = (int32_t *)(s.pool + (size_t)s.max_regions * (2 + 2 * (size_t)d));
     s.split = (uint32_t *)(s.tag + CUB_CHUNK);
     s.heap = s.split + s.max_regions;
