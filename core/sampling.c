@@ -5,7 +5,9 @@
  * random (mc), stratified or lhs sets of n points, or the chosen QMC
  * sequence, scrambled with a seed hashed from (seed, r) for rqmc.  Block b
  * of replicate r covers indices [b B, min(n, (b+1) B)), B =
- * QMC_SAMPLING_BLOCK, and its sums are computed in index order.
+ * QMC_SAMPLING_BLOCK, and its sums are computed in index order.  A split
+ * net (spec.split_net) scrambles every replicate alike and shifts
+ * replicate r's indices by r n.
  *
  * Must not: keep state between calls, or allocate in run_block.
  */
@@ -59,7 +61,9 @@ static qmc_seq_spec replicate_seq(const qmc_sampling_spec *s, uint32_t dims, uin
         q.kind = s->seq;
         q.scramble = s->scramble;
         q.flags = s->seq_flags;
-        q.seed = s->sampler == QMC_SAMPLER_RQMC ? seed_r : s->seed;
+        q.seed = s->sampler != QMC_SAMPLER_RQMC ? s->seed
+                 : s->split_net                 ? qmc__hash3(s->seed, 0, TAG_REPLICATE)
+                                                : seed_r;
         q.set_size = s->seq == QMC_SEQ_HAMMERSLEY ? s->n : 0;
         break;
     }
@@ -108,6 +112,16 @@ static int check_spec(const qmc_sampling_spec *s, const qmc_integrand *f,
         qmc__msg_str(why, "hammersley's first coordinate is not randomized: use rqmc with "
                           "sobol or halton, or qmc with hammersley");
         return QMC_ESCRAMBLE;
+    }
+    if (s->split_net != 0 && s->split_net != 1) {
+        qmc__msg_str(why, "split_net is 0 or 1");
+        return QMC_EINVAL;
+    }
+    /* A split net's R n indices stay below 2^32 by the block cap above;
+     * rqmc refuses hammersley's finite set below. */
+    if (s->split_net && s->sampler != QMC_SAMPLER_RQMC) {
+        qmc__msg_str(why, "a split net is for rqmc: the other samplers have no net to split");
+        return QMC_EINVAL;
     }
     if (s->sampler == QMC_SAMPLER_RQMC && s->reps < 2) {
         qmc__msg_str(why, "rqmc needs reps >= 2 independent randomizations for an error bar");
@@ -239,6 +253,8 @@ uint64_t qmc_sampling_fingerprint(const qmc_sampling_job *job)
     uint64_t conf;
     memcpy(&conf, &s->confidence, sizeof conf);
     h = qmc__hash3(h, conf, job->dims);
+    if (s->split_net) /* 0 hashes as before the option existed */
+        h = qmc__hash3(h, s->split_net, 0x73706c6974 /* "split" */);
     for (const char *p = job->f->name ? job->f->name : ""; *p; p++)
         h = qmc__hash3(h, (unsigned char)*p, 1);
     uint64_t ex;
@@ -435,6 +451,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     const uint32_t r = (uint32_t)(block / job->blocks_per_rep);
     const uint64_t b = block % job->blocks_per_rep;
     const uint64_t first = b * QMC_SAMPLING_BLOCK;
+    const uint64_t offset = job->spec.split_net ? (uint64_t)r * job->spec.n : 0;
     const uint64_t end = first + QMC_SAMPLING_BLOCK < job->spec.n ? first + QMC_SAMPLING_BLOCK
                                                                    : job->spec.n;
     const uint32_t d = job->dims;
@@ -444,7 +461,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     uint64_t finite = 0;
     for (uint64_t i0 = first; i0 < end; i0 += job->chunk) {
         size_t m = end - i0 < job->chunk ? (size_t)(end - i0) : job->chunk;
-        int err = qmc_seq_fill(job->seqs[r], i0, m, QMC_FORMAT_F64, x);
+        int err = qmc_seq_fill(job->seqs[r], offset + i0, m, QMC_FORMAT_F64, x);
         if (err)
             return err;
         job->f->eval(job->f->ctx, x, m, d, fv);

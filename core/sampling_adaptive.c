@@ -5,7 +5,8 @@
  * For mc, qmc and rqmc over infinite sequences the points of a round are a
  * prefix of the next round's (same sequences, same seeds), so when the old
  * n filled whole blocks, those blocks' sums are reused as they are: the
- * answer equals a fixed-n run at the final n, bit for bit.  Finite sets
+ * answer equals a fixed-n run at the final n, bit for bit.  (A split net's
+ * old round is the first half of the new one's replicates.)  Finite sets
  * (stratified, lhs, hammersley) change with n, so each round starts afresh
  * (and stratified grows to the next k^d).
  */
@@ -39,6 +40,33 @@ static int extendable(const qmc_sampling_spec *s)
         return 1;
     return (s->sampler == QMC_SAMPLER_QMC || s->sampler == QMC_SAMPLER_RQMC) &&
            s->seq != QMC_SEQ_HAMMERSLEY;
+}
+
+/* How many leading blocks of replicate r (bpr blocks of s->n points) the
+ * last round (n_old points a replicate, whole blocks) computed already.
+ * Independent replicates extend their own sequences: all of the old
+ * blocks.  A split net's round covers indices [0, R n_old) of the one
+ * sequence, which the longer replicates now cut differently. */
+static uint64_t reused_blocks(const qmc_sampling_spec *s, uint32_t r, uint64_t n_old,
+                              uint64_t bpr)
+{
+    if (!s->split_net)
+        return n_old / QMC_SAMPLING_BLOCK;
+    const uint64_t done = (uint64_t)s->reps * n_old, start = (uint64_t)r * s->n;
+    if (done <= start)
+        return 0;
+    uint64_t b = (done - start) / QMC_SAMPLING_BLOCK;
+    return b < bpr ? b : bpr;
+}
+
+/* The last round's index of the block that is block b of replicate r now. */
+static uint64_t old_block(const qmc_sampling_spec *s, uint32_t r, uint64_t b, uint64_t n_old,
+                          uint64_t bpr_old)
+{
+    if (!s->split_net)
+        return r * bpr_old + b;
+    const uint64_t at = (uint64_t)r * s->n + b * QMC_SAMPLING_BLOCK;
+    return at / n_old * bpr_old + at % n_old / QMC_SAMPLING_BLOCK;
 }
 
 int qmc_sampling_adaptive(const qmc_sampling_spec *spec, const qmc_integrand *f,
@@ -84,9 +112,9 @@ int qmc_sampling_adaptive(const qmc_sampling_spec *spec, const qmc_integrand *f,
         }
         const int reuse = prev && extendable(&s) && prev_n % QMC_SAMPLING_BLOCK == 0;
         for (uint32_t r = 0; r < s.reps && !err; r++) {
-            uint64_t have = reuse ? prev_bpr : 0;
+            uint64_t have = reuse ? reused_blocks(&s, r, prev_n, bpr) : 0;
             for (uint64_t b = 0; b < have; b++) {
-                sums[r * bpr + b] = prev[r * prev_bpr + b];
+                sums[r * bpr + b] = prev[old_block(&s, r, b, prev_n, prev_bpr)];
                 sums[r * bpr + b].block = r * bpr + b;
             }
             err = qmc__sampling_run_blocks(job, runner, runner_ctx, r * bpr + have, bpr - have,

@@ -237,7 +237,8 @@ static void io_end(qmc__io *io, qmc_msg *m)
 }
 
 /* qmc_sampling_spec, shared by INTEGRATE and JOB_RESULT: 4 code bytes,
- * seq_flags, seed, n, confidence, reps, 4 reserved (40 bytes in all). */
+ * seq_flags, seed, n, confidence, reps, split_net, 3 reserved (40 bytes in
+ * all; split_net was a reserved zero before it existed). */
 static void io_sampling(qmc__io *io, qmc_sampling_spec *s, int finite)
 {
     IO_ENUM(io, s->sampler, sampler_ok);
@@ -252,7 +253,8 @@ static void io_sampling(qmc__io *io, qmc_sampling_spec *s, int finite)
     else
         qmc__io_f64(io, &s->confidence);
     qmc__io_u32(io, &s->reps);
-    qmc__io_zero(io, 4);
+    qmc__io_bool(io, &s->split_net);
+    qmc__io_zero(io, 3);
 }
 
 static void io_integrate(qmc__io *io, qmc_msg *m)

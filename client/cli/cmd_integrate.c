@@ -20,9 +20,9 @@ static const char integrate_help[] =
     "                      [--difficulty testpack|fixed] | --scene FILE)\n"
     "         --method auto|mc|stratified|lhs|qmc|rqmc|midpoint|trapezoid|simpson|\n"
     "                  gauss-legendre|gauss-kronrod|cubature\n"
-    "         [--seq KIND] [--scramble S] [--shuffle] [--n N] [--reps R] [--seed X]\n"
-    "         [--strategy uniform|brdf|light|mis-balance|mis-power|mis-max] [--beta B]\n"
-    "         [--control NAME] [--tol-abs E] [--tol-rel E] [--max-evals N]\n"
+    "         [--seq KIND] [--scramble S] [--shuffle] [--n N] [--reps R] [--split-net]\n"
+    "         [--seed X] [--strategy uniform|brdf|light|mis-balance|mis-power|mis-max]\n"
+    "         [--beta B] [--control NAME] [--tol-abs E] [--tol-rel E] [--max-evals N]\n"
     "         [--max-memory BYTES] [--confidence C] [--threads T] [--part K/P] [--json]\n"
     "\n"
     "Integrates over the unit cube [0,1)^D and prints the estimate, its error\n"
@@ -47,6 +47,10 @@ static const char integrate_help[] =
     "  --n N             points per replicate (sampling, default 4096; stratified:\n"
     "                    the largest k^D not above it) or per axis (tensor, 16)\n"
     "  --reps R          independent replicates (rqmc default 16)\n"
+    "  --split-net       rqmc: the replicates are consecutive blocks of one\n"
+    "                    scrambled sequence - the accuracy of one net of R n\n"
+    "                    points, and a conservative bar (auto's choice when the\n"
+    "                    integrand has jumps)\n"
     "  --seq, --scramble sequence and scramble for qmc/rqmc (sobol, owen)\n"
     "  --seed X          seeds the sampling and --difficulty\n"
     "  --control NAME    a control variate with known integral (same D, a, u)\n"
@@ -107,6 +111,7 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
         {"u", required_argument, 0, 0},         {"difficulty", required_argument, 0, 0},
         {"method", required_argument, 0, 0},    {"seq", required_argument, 0, 0},
         {"scramble", required_argument, 0, 0},  {"shuffle", no_argument, 0, 0},
+        {"split-net", no_argument, 0, 0},
         {"n", required_argument, 0, 0},         {"reps", required_argument, 0, 0},
         {"seed", required_argument, 0, 0},      {"strategy", required_argument, 0, 0},
         {"beta", required_argument, 0, 0},      {"samples", required_argument, 0, 0},
@@ -176,6 +181,8 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
             o->have_scramble = 1;
         } else if (strcmp(name, "shuffle") == 0) {
             o->spec.seq_flags |= QMC_SEQ_SHUFFLE;
+        } else if (strcmp(name, "split-net") == 0) {
+            o->spec.split_net = 1;
         } else if (strcmp(name, "n") == 0) {
             if (cli_parse_u64("--n", arg, 1, QMC_SEQ_MAX_INDEX, &o->spec.n))
                 return -1;
@@ -241,6 +248,9 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
 int cli_integrate_defaults(cli_integrate *o, const cli_problem *p)
 {
     qmc_sampler s;
+    if (o->spec.split_net && strcmp(o->method, "rqmc") != 0)
+        return cli_error("--split-net is for rqmc (auto splits a net by itself when the "
+                         "integrand has jumps), not %s", o->method), -1;
     if (qmc_sampler_parse(o->method, &s) != 0)
         return 0;
     qmc_sampling_spec d;

@@ -65,7 +65,7 @@ typedef struct cli_report {
     const char *requested;        /* the --method given ("auto", ...) */
     const char *method;           /* the method that ran */
     char detail[160];             /* e.g. "sobol owen, 16 x 4096 points" */
-    char auto_reason[160];        /* why auto chose what it chose */
+    char auto_reason[QMC_AUTO_REASON_BYTES]; /* why auto chose what it chose */
     qmc_result res;
     qmc_cv_report cv;
     double seconds;

@@ -70,13 +70,16 @@ typedef struct qmc_integrate_spec {
  * 1e8 evaluations, 64 MiB of cubature regions, no interrupt hook. */
 void qmc_integrate_spec_init(qmc_integrate_spec *spec);
 
+/* Room for auto's reason, terminator included. */
+#define QMC_AUTO_REASON_BYTES 256
+
 typedef struct qmc_integrate_report {
     qmc_result res;
     qmc_cv_report cv;
     qmc_method method_used;      /* auto's choice, else method */
     qmc_sampling_spec sampling;  /* sampling methods: the spec run (final n) */
     char detail[160];            /* "sobol owen, 16 x 4096 points" */
-    char auto_reason[160];       /* why auto chose method_used; "" else */
+    char auto_reason[QMC_AUTO_REASON_BYTES]; /* why auto chose method_used; "" else */
 } qmc_integrate_report;
 
 /*

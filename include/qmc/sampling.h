@@ -69,6 +69,15 @@ typedef struct qmc_sampling_spec {
     uint64_t n;              /* points per replicate, >= 1 */
     uint32_t reps;           /* independent replicates R; rqmc needs >= 2 */
     double confidence;       /* two-sided interval level in (0, 1) */
+    /* rqmc over an infinite sequence: 0 (default) gives each replicate its
+     * own scramble.  1 splits one scrambled sequence instead: replicate r
+     * is its points [r n, (r+1) n), so the estimate is that of one net of
+     * R n points.  Where a net's error falls only like 1/N (integrands
+     * with jumps) independent replicates cost sqrt(R) in accuracy; split,
+     * the blocks' spread overstates the error by about that much instead
+     * (the blocks of one net are negatively correlated: a conservative
+     * bar, which the coverage tests check, not an exact one). */
+    int split_net;
 } qmc_sampling_spec;
 
 /* Spec defaults: sobol, owen for rqmc, n = 4096, reps 1 (rqmc 16),

@@ -32,6 +32,7 @@ integrate-rqmc      integrate --integrand genz-oscillatory --dims 8 --method rqm
 integrate-cubature  integrate --integrand genz-gaussian --dims 4 --method cubature --max-evals 200000 --json
 integrate-gl        integrate --integrand genz-product-peak --dims 3 --method gauss-legendre --n 12 --json
 integrate-auto-map  integrate --integrand genz-continuous --dims 20 --method auto --max-evals 400000 --seed 2 --json
+integrate-auto-split integrate --integrand genz-discontinuous --dims 5 --method auto --max-evals 200000 --seed 4 --json
 integrate-scene     integrate --scene tests/scenes/phong_sphere.scene --method rqmc --n 1024 --strategy mis-power --json
 CASES
 }

@@ -52,6 +52,22 @@ done
 if cmp -s "$tmp/t1" "$tmp/merged"; then ok
 else bad "merge differs from the single run"; diff "$tmp/t1" "$tmp/merged" | head -5; fi
 
+# A split net (replicates cut from one scrambled sequence) splits and
+# merges the same way, and differs from independent replicates.
+S="--integrand genz-discontinuous --dims 3 --method rqmc --reps 8 --n 8192 --seed 4 --json"
+# shellcheck disable=SC2086
+"$QMC" integrate $S --split-net | strip_seconds > "$tmp/s1"
+for k in 1 2 3; do
+    # shellcheck disable=SC2086
+    "$QMC" integrate $S --split-net --part $k/3 > "$tmp/sp$k" || bad "split part $k/3 failed"
+done
+"$QMC" merge --json "$tmp/sp2" "$tmp/sp3" "$tmp/sp1" | strip_seconds > "$tmp/smerged"
+# shellcheck disable=SC2086
+"$QMC" integrate $S | strip_seconds > "$tmp/s0"
+if cmp -s "$tmp/s1" "$tmp/smerged" && grep -q 'split from one net' "$tmp/s1" &&
+   ! cmp -s "$tmp/s0" "$tmp/s1"; then ok
+else bad "split net: merge or labels wrong"; diff "$tmp/s1" "$tmp/smerged" | head -5; fi
+
 # 5. Adaptive stopping meets the tolerance, or says it ran out of budget.
 "$QMC" integrate --integrand genz-gaussian --dims 5 --method rqmc --tol-rel 1e-6 --json > "$tmp/r.json"
 if awk -v e="$(json estimate < "$tmp/r.json")" -v h="$(json ci_high < "$tmp/r.json")" \
@@ -119,6 +135,7 @@ err_case "1D" integrate --integrand genz-gaussian --dims 2 --method gauss-kronro
 err_case "control variate" integrate --integrand genz-gaussian --dims 2 --control genz-product-peak --method simpson
 err_case "rqmc" integrate --integrand genz-gaussian --dims 2 --method qmc --tol-rel 1e-3
 err_case "reps" integrate --integrand genz-gaussian --dims 2 --method rqmc --reps 1
+err_case "--split-net is for rqmc" integrate --integrand genz-gaussian --dims 2 --method mc --split-net
 err_case "k^2" integrate --integrand genz-gaussian --dims 2 --method stratified --n 10
 err_case "--part" integrate --integrand exp --dims 1 --method rqmc --part 4/3
 err_case "fixed --n" integrate --integrand exp --dims 1 --method rqmc --tol-rel 1e-3 --part 1/2

@@ -124,6 +124,8 @@ done <<EOF
 --integrand genz-continuous --dims 20 --method auto --max-evals 400000 --seed 2
 --integrand genz-gaussian --dims 4 --control genz-product-peak --method mc --seed 5
 --integrand exp --dims 1 --method auto
+--integrand genz-discontinuous --dims 5 --method auto --max-evals 200000 --seed 4
+--integrand genz-discontinuous --dims 3 --method rqmc --reps 8 --n 2048 --split-net
 --scene tests/scenes/lambert_sphere.scene --method rqmc --strategy mis-power
 --scene tests/scenes/phong_sphere.scene --method rqmc --n 1024 --strategy light
 EOF

@@ -10,6 +10,10 @@
  * far from normal at small n.  A negative control shows the test can fail:
  * the naive interval that pretends all R*n points are independent (plain
  * MC formula applied to RQMC points) covers far less often.
+ *
+ * A split net (qmc_sampling_spec.split_net, auto's choice for integrands
+ * with jumps) trades the interval's tightness for accuracy: its intervals
+ * must cover at least as often, and its errors must be smaller.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -27,11 +31,11 @@ enum { SEEDS = 200 };
 
 typedef struct cover {
     int hits, reps_ok;
-    double mean_width;
+    double mean_width, rms_error;
 } cover;
 
-static cover coverage(const char *family, uint32_t dims, qmc_sampler sampler, uint32_t reps,
-                      uint64_t n)
+static cover coverage_of(const char *family, uint32_t dims, qmc_sampler sampler, uint32_t reps,
+                         uint64_t n, int split_net)
 {
     double a[16], u[16];
     qmc_genz_family fam;
@@ -43,13 +47,14 @@ static cover coverage(const char *family, uint32_t dims, qmc_sampler sampler, ui
         fail_msg("%s", why);
     const qmc_integrand *f = qmc_testfn_integrand(fn);
     assert_true(f->has_exact);
-    cover c = {0, 0, 0};
+    cover c = {0, 0, 0, 0};
     for (uint64_t seed = 0; seed < SEEDS; seed++) {
         qmc_sampling_spec s;
         qmc_sampling_spec_init(&s, sampler);
         s.reps = reps;
         s.n = n;
         s.seed = 1000 + seed;
+        s.split_net = split_net;
         qmc_sampling_job *job = NULL;
         assert_int_equal(qmc_sampling_job_new(&s, f, NULL, &job, why, sizeof why), 0);
         qmc_result r;
@@ -57,9 +62,17 @@ static cover coverage(const char *family, uint32_t dims, qmc_sampler sampler, ui
         qmc_sampling_job_free(job);
         c.hits += r.ci_low <= f->exact && f->exact <= r.ci_high;
         c.mean_width += (r.ci_high - r.ci_low) / SEEDS;
+        c.rms_error += (r.estimate - f->exact) * (r.estimate - f->exact) / SEEDS;
     }
+    c.rms_error = sqrt(c.rms_error);
     qmc_testfn_free(fn);
     return c;
+}
+
+static cover coverage(const char *family, uint32_t dims, qmc_sampler sampler, uint32_t reps,
+                      uint64_t n)
+{
+    return coverage_of(family, dims, sampler, reps, n, 0);
 }
 
 static void test_rqmc_covers_smooth(void **state)
@@ -82,6 +95,26 @@ static void test_rqmc_covers_discontinuous(void **state)
     c = coverage("genz-continuous", 3, QMC_SAMPLER_RQMC, 8, 128);
     print_message("genz-continuous d=3: %d/%d intervals cover\n", c.hits, SEEDS);
     assert_true(c.hits >= 0.88 * SEEDS);
+}
+
+/* One net of 8 n points, split in 8: on a discontinuous family its error
+ * falls like 1/N, so it should be about sqrt(8) = 2.8x more accurate than 8
+ * independent nets of n (2.1-3.3x measured at d = 2..10); the spread of
+ * its blocks overstates the error rather than understating it. */
+static void test_split_net_covers_and_gains(void **state)
+{
+    (void)state;
+    const char *fams[] = {"genz-discontinuous", "genz-gaussian"};
+    for (int i = 0; i < 2; i++) {
+        cover indep = coverage_of(fams[i], 4, QMC_SAMPLER_RQMC, 8, 256, 0);
+        cover split = coverage_of(fams[i], 4, QMC_SAMPLER_RQMC, 8, 256, 1);
+        print_message("%s d=4: split net %d/%d cover, rms error %.3g (independent %.3g)\n",
+                      fams[i], split.hits, SEEDS, split.rms_error, indep.rms_error);
+        assert_true(split.hits >= 0.88 * SEEDS);
+        assert_true(split.hits >= indep.hits);
+        if (i == 0)
+            assert_true(split.rms_error < indep.rms_error / 1.5);
+    }
 }
 
 /* Plain MC intervals cover too (n large enough for the CLT). */
@@ -131,6 +164,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rqmc_covers_smooth),
         cmocka_unit_test(test_rqmc_covers_discontinuous),
+        cmocka_unit_test(test_split_net_covers_and_gains),
         cmocka_unit_test(test_mc_covers),
         cmocka_unit_test(test_too_narrow_interval_fails),
     };

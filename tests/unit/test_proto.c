@@ -140,6 +140,7 @@ static void build_integrate(qmc_msg *m, int variant)
         in->sampling.seed = UINT64_MAX;
         in->sampling.n = UINT64_MAX;
         in->sampling.reps = UINT32_MAX;
+        in->sampling.split_net = 1;
         in->sampling.confidence = DBL_MIN;
         in->n_given = 1;
         in->n_axis = UINT32_MAX;
@@ -201,6 +202,7 @@ static void build_result(qmc_msg *m, int variant)
     r->sampling.seq_flags = QMC_SEQ_SHUFFLE;
     r->sampling.seed = r->sampling.n = UINT64_MAX;
     r->sampling.reps = UINT32_MAX;
+    r->sampling.split_net = 1;
     r->sampling.confidence = NAN;
     r->seconds = DBL_MAX;
     r->reference_kind = 2;
@@ -769,7 +771,8 @@ static const mutation mutations[] = {
     {QMC_MSG_INTEGRATE, 67, 1, 1, "reserved"},
     {QMC_MSG_INTEGRATE, 68, 4, 2, "undefined seq flag"},
     {QMC_MSG_INTEGRATE, 88, 8, 0x7ff8000000000001u, "confidence NaN"},
-    {QMC_MSG_INTEGRATE, 100, 4, 1, "reserved"},
+    {QMC_MSG_INTEGRATE, 100, 1, 2, "split_net 2"},
+    {QMC_MSG_INTEGRATE, 101, 3, 1, "reserved"},
     {QMC_MSG_INTEGRATE, I_NAME, 2, QMC_JOB_NAME_BYTES, "integrand name over its limit"},
     {QMC_MSG_INTEGRATE, I_A, 4, 4, "a count past the payload"},
     {QMC_MSG_INTEGRATE, I_A, 4, QMC_PROTO_MAX_LIST, "a count past the payload"},
@@ -793,7 +796,8 @@ static const mutation mutations[] = {
     {QMC_MSG_JOB_RESULT, 120, 1, 5, "sampler 5"},
     {QMC_MSG_JOB_RESULT, 121, 1, 7, "seq kind 7"},
     {QMC_MSG_JOB_RESULT, 123, 1, 1, "reserved"},
-    {QMC_MSG_JOB_RESULT, 156, 4, 1, "reserved"},
+    {QMC_MSG_JOB_RESULT, 156, 1, 2, "split_net 2"},
+    {QMC_MSG_JOB_RESULT, 157, 3, 1, "reserved"},
     {QMC_MSG_JOB_RESULT, 160, 2, QMC_PROTO_MAX_MESSAGE + 1, "detail over its limit"},
     {QMC_MSG_JOB_RESULT, 160, 2, 40, "detail past the payload"},
     {QMC_MSG_STATS_REPLY, 0, 4, 4, "count past the payload"},

@@ -246,6 +246,64 @@ static void test_adaptive(void **state)
     assert_non_null(strstr(why, "rqmc"));
 }
 
+/* 1 below x_0 = 0.3: a jump, integral 0.3. */
+static void step(const void *ctx, const double *x, size_t n, uint32_t d, double *out)
+{
+    (void)ctx;
+    for (size_t i = 0; i < n; i++)
+        out[i] = x[i * d] < 0.3 ? 1.0 : 0.0;
+}
+
+static void test_split_net(void **state)
+{
+    (void)state;
+    qmc_integrand f = make_f(step, 3, 0.3);
+    qmc_sampling_spec s;
+    qmc_sampling_spec_init(&s, QMC_SAMPLER_RQMC);
+    s.reps = 8;
+    s.n = 4096;
+    s.split_net = 1;
+    /* The replicates cut one point set: 8 x 4096 and 4 x 8192 points give
+     * the same estimate (up to the order of the sums), and a different
+     * one from independent replicates. */
+    qmc_result r8, r4, indep, fixed;
+    run(&s, &f, NULL, &r8, NULL);
+    s.reps = 4;
+    s.n = 8192;
+    run(&s, &f, NULL, &r4, NULL);
+    assert_true(fabs(r8.estimate - r4.estimate) <= 1e-15);
+    assert_true(r8.error != r4.error);
+    s.split_net = 0;
+    run(&s, &f, NULL, &indep, NULL);
+    assert_true(indep.estimate != r4.estimate);
+    /* Adaptive rounds reuse the old net as the first half of the new
+     * replicates: the answer is a fixed run's at the final n, bit for bit. */
+    s.split_net = 1;
+    s.reps = 8;
+    s.n = 4096;
+    uint64_t n = 0;
+    char why[200];
+    assert_int_equal(qmc_sampling_adaptive(&s, &f, NULL, 0, 1e-5, 1u << 26, NULL, NULL, &r8,
+                                           NULL, &n, why, sizeof why), 0);
+    assert_true(n >= 4 * 4096);
+    assert_true(r8.evals == 8 * n);
+    s.n = n;
+    run(&s, &f, NULL, &fixed, NULL);
+    assert_true(fixed.estimate == r8.estimate && fixed.error == r8.error);
+    /* Only rqmc, and only 2^32 indices in all
+     * (the job's block cap keeps reps x n below). */
+    qmc_sampling_job *job = NULL;
+    s.n = 1u << 30;
+    assert_int_equal(qmc_sampling_job_new(&s, &f, NULL, &job, why, sizeof why), QMC_ETOOBIG);
+    qmc_sampling_spec_init(&s, QMC_SAMPLER_MC);
+    s.split_net = 1;
+    assert_int_equal(qmc_sampling_job_new(&s, &f, NULL, &job, why, sizeof why), QMC_EINVAL);
+    assert_non_null(strstr(why, "split net"));
+    s.split_net = 2;
+    assert_int_equal(qmc_sampling_job_new(&s, &f, NULL, &job, why, sizeof why), QMC_EINVAL);
+    assert_null(job);
+}
+
 static void test_student_t(void **state)
 {
     (void)state;
@@ -297,6 +355,7 @@ int main(void)
         cmocka_unit_test(test_control_variate),
         cmocka_unit_test(test_flags),
         cmocka_unit_test(test_adaptive),
+        cmocka_unit_test(test_split_net),
         cmocka_unit_test(test_student_t),
         cmocka_unit_test(test_errors),
     };
