@@ -34,7 +34,8 @@ extern "C" {
     X(SIMPSON, "simpson")                  \
     X(GAUSS_LEGENDRE, "gauss-legendre")    \
     X(GAUSS_KRONROD, "gauss-kronrod")      \
-    X(CUBATURE, "cubature")
+    X(CUBATURE, "cubature")                \
+    X(CLENSHAW_CURTIS, "clenshaw-curtis")
 
 typedef enum qmc_method {
 #define QMC__METHOD_ENUM(name, text) QMC_METHOD_##name,

@@ -239,6 +239,37 @@ QMC_MUST_CHECK int qmc_cubature(const qmc_integrand *f,
                                 void *workspace, size_t workspace_bytes,
                                 qmc_result *res, char *why, size_t why_bytes);
 
+/* ---- p-adaptive tensor Clenshaw-Curtis --------------------------------------
+ *
+ * For analytic integrands in a few dimensions, where raising a rule's
+ * degree converges exponentially and splitting regions (above) only
+ * algebraically.  Each axis carries a nested Clenshaw-Curtis rule of 2^m + 1
+ * points; the axis whose rule one level lower changes the answer most is
+ * raised next, reusing every point.  res->n is the grid's size and
+ * res->error the sum over axes of that change, extrapolated one level
+ * geometrically (still an overestimate while the levels converge) and at
+ * least the rounding floor 16 eps int |f|.  A refinement past max_evals
+ * stops with QMC_FLAG_BUDGET, past the workspace with QMC_FLAG_MEMORY_BOUND
+ * (both with NOT_CONVERGED).  The grid points include the faces of the
+ * cube (1 is moved to the last double below it).
+ */
+#define QMC_CC_MAX_DIMS 12u
+
+/* Workspace bytes for grids of up to max_points points (0 on overflow or
+ * bad dims): about 18 bytes a point, plus the 1D tables. */
+size_t qmc_cubature_cc_workspace_bytes(uint32_t dims, uint64_t max_points);
+
+/*
+ * Integrates f over [0,1]^f->dims.  Returns 0 with res filled, or with a
+ * reason in why: QMC_EBUDGET (the first grid, 3^d or 5^d points, is over
+ * max_evals), QMC_EDIMS (0 or over QMC_CC_MAX_DIMS), QMC_EINVAL (NULL
+ * argument, no tolerance, workspace too small or misaligned), and
+ * QMC_ECANCELED when opts->interrupt fired.
+ */
+QMC_MUST_CHECK int qmc_cubature_cc(const qmc_integrand *f, const qmc_cubature_opts *opts,
+                                   void *workspace, size_t workspace_bytes,
+                                   qmc_result *res, char *why, size_t why_bytes);
+
 #ifdef __cplusplus
 }
 #endif

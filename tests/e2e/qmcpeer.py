@@ -38,7 +38,7 @@ KIND = dict(sobol=1, halton=2, hammersley=3, random=4, stratified=5, lhs=6)
 SCRAMBLE = dict(none=0, shift=1, owen=2, faure=3)
 FORMAT = dict(f64=(1, 8), f32=(2, 4), u32=(3, 4))
 METHODS = ["auto", "mc", "stratified", "lhs", "qmc", "rqmc", "midpoint", "trapezoid",
-           "simpson", "gauss-legendre", "gauss-kronrod", "cubature"]
+           "simpson", "gauss-legendre", "gauss-kronrod", "cubature", "clenshaw-curtis"]
 SAMPLERS = ["mc", "stratified", "lhs", "qmc", "rqmc"]
 JOB_STATES = {1: "queued", 2: "running", 3: "done", 4: "cancelled", 5: "failed",
               6: "unknown"}
@@ -88,17 +88,17 @@ class Reader:
 
 
 def sampling_spec(sampler="mc", seq="sobol", scramble="none", flags=0, seed=0, n=4096,
-                  confidence=0.95, reps=1):
-    return struct.pack("<BBBBIQQdI4x", SAMPLERS.index(sampler), KIND.get(seq, 0),
-                       SCRAMBLE[scramble], 0, flags, seed, n, confidence, reps)
+                  confidence=0.95, reps=1, split_net=0):
+    return struct.pack("<BBBBIQQdIB3x", SAMPLERS.index(sampler), KIND.get(seq, 0),
+                       SCRAMBLE[scramble], 0, flags, seed, n, confidence, reps, split_net)
 
 
 def read_sampling(r):
     sampler, seq, scr, zero, flags = r.u("B"), r.u("B"), r.u("B"), r.u("B"), r.u("I")
-    seed, n, conf, reps = r.u("Q"), r.u("Q"), r.u("d"), r.u("I")
-    r.take(4)
+    seed, n, conf, reps, split_net = r.u("Q"), r.u("Q"), r.u("d"), r.u("I"), r.u("B")
+    r.take(3)
     return dict(sampler=SAMPLERS[sampler], seq=seq, scramble=scr, flags=flags, seed=seed,
-                n=n, confidence=conf, reps=reps)
+                n=n, confidence=conf, reps=reps, split_net=split_net)
 
 
 def decode(mtype, p):

@@ -30,6 +30,7 @@ stratified-f64      points --seq stratified --dims 3 --count 4096 --seed 11 --fo
 lhs-f64             points --seq lhs --dims 6 --count 3000 --seed 11 --format f64
 integrate-rqmc      integrate --integrand genz-oscillatory --dims 8 --method rqmc --n 4096 --seed 5 --json
 integrate-cubature  integrate --integrand genz-gaussian --dims 4 --method cubature --max-evals 200000 --json
+integrate-cc        integrate --integrand genz-corner-peak --dims 4 --method clenshaw-curtis --max-evals 300000 --json
 integrate-gl        integrate --integrand genz-product-peak --dims 3 --method gauss-legendre --n 12 --json
 integrate-auto-map  integrate --integrand genz-continuous --dims 20 --method auto --max-evals 400000 --seed 2 --json
 integrate-auto-split integrate --integrand genz-discontinuous --dims 5 --method auto --max-evals 200000 --seed 4 --json

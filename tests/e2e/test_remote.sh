@@ -120,6 +120,7 @@ while read -r args; do
 done <<EOF
 --integrand genz-gaussian --dims 4 --method rqmc --n 4096 --seed 3
 --integrand genz-oscillatory --dims 3 --method cubature
+--integrand genz-gaussian --dims 3 --method clenshaw-curtis --tol-rel 1e-12
 --integrand genz-corner-peak --dims 6 --method auto --tol-rel 1e-4
 --integrand genz-continuous --dims 20 --method auto --max-evals 400000 --seed 2
 --integrand genz-gaussian --dims 4 --control genz-product-peak --method mc --seed 5

@@ -756,7 +756,7 @@ static const mutation mutations[] = {
     {QMC_MSG_POINTS_CHUNK, 12, 4, 31, "data_len disagrees"},
     {QMC_MSG_POINTS_CHUNK, 12, 4, 36, "data_len past the payload"},
     {QMC_MSG_POINTS_CHUNK, 12, 4, QMC_PROTO_CHUNK_BYTES + 4, "data_len over the chunk cap"},
-    {QMC_MSG_INTEGRATE, 0, 1, 12, "method 12"},
+    {QMC_MSG_INTEGRATE, 0, 1, 13, "method 13"},
     {QMC_MSG_INTEGRATE, 1, 1, 0, "strategy 0"},
     {QMC_MSG_INTEGRATE, 1, 1, 7, "strategy 7"},
     {QMC_MSG_INTEGRATE, 2, 1, 2, "difficulty 2"},
@@ -787,7 +787,7 @@ static const mutation mutations[] = {
     {QMC_MSG_JOB_STATE, 8, 1, 7, "state 7"},
     {QMC_MSG_JOB_STATE, 9, 1, 1, "reserved"},
     {QMC_MSG_JOB_STATE, 15, 1, 1, "reserved"},
-    {QMC_MSG_JOB_RESULT, 8, 1, 12, "method 12"},
+    {QMC_MSG_JOB_RESULT, 8, 1, 13, "method 13"},
     {QMC_MSG_JOB_RESULT, 9, 1, 3, "error kind 3"},
     {QMC_MSG_JOB_RESULT, 10, 1, 3, "reference kind 3"},
     {QMC_MSG_JOB_RESULT, 11, 1, 2, "cv.used 2"},
@@ -933,8 +933,8 @@ static void test_encoder_refuses(void **state)
     m.u.integrate.spec.strategy = (qmc_scene_strategy)0;
     refuse(&m, "strategy 0");
     build(QMC_MSG_INTEGRATE, EXAMPLE, &m);
-    m.u.integrate.spec.integrate.method = (qmc_method)12;
-    refuse(&m, "method 12");
+    m.u.integrate.spec.integrate.method = (qmc_method)13;
+    refuse(&m, "method 13");
     build(QMC_MSG_INTEGRATE, EXAMPLE, &m);
     m.u.integrate.scene = text_of_len(QMC_SCENE_MAX_BYTES);
     m.u.integrate.scene.len++;

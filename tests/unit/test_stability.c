@@ -182,11 +182,12 @@ static void test_clean_run_raises_nothing(void **state)
     o = run("genz-oscillatory", 3, QMC_METHOD_AUTO, NULL);
     assert_int_equal(o.err, 0);
     assert_int_equal(o.rep.res.flags, 0);
-    assert_int_equal(o.rep.method_used, QMC_METHOD_CUBATURE);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_CLENSHAW_CURTIS);
 }
 
-/* auto follows the crossovers measured in core/integrate.c: cubature for
- * analytic integrands up to 10 dims once the budget buys one region, for
+/* auto follows the crossovers measured in core/integrate.c: tensor
+ * Clenshaw-Curtis for analytic integrands once the budget buys 17^d
+ * points, cubature for the others up to 10 dims once it buys one region, for
  * continuous ones up to 4 dims (50 regions), RQMC otherwise. */
 static uint64_t auto_budget;
 
@@ -210,6 +211,10 @@ static void test_auto_choice(void **state)
     const uint64_t region10 = qmc_cubature_region_evals(10);
     assert_int_equal(region10, 1245);
     assert_int_equal(auto_picks("genz-gaussian", 10, region10), QMC_METHOD_CUBATURE);
+    assert_int_equal(auto_picks("genz-gaussian", 4, 83521), QMC_METHOD_CLENSHAW_CURTIS);
+    assert_int_equal(auto_picks("genz-gaussian", 4, 83520), QMC_METHOD_CUBATURE);
+    assert_int_equal(auto_picks("genz-oscillatory", 2, 10000), QMC_METHOD_CLENSHAW_CURTIS);
+    assert_int_equal(auto_picks("genz-continuous", 2, 10000), QMC_METHOD_CUBATURE);
     assert_int_equal(auto_picks("genz-gaussian", 10, region10 - 1), QMC_METHOD_RQMC);
     assert_int_equal(auto_picks("genz-oscillatory", 11, 100000000), QMC_METHOD_RQMC);
     assert_int_equal(auto_picks("genz-continuous", 4, 1000000), QMC_METHOD_CUBATURE);
