@@ -294,30 +294,46 @@ static void top_insert(double *top, double v)
     top[lo] = v;
 }
 
-static int cmp_descending(const void *a, const void *b)
+/*
+ * While a block runs, its largest |f| live in a min-heap of
+ * QMC_SAMPLING_TOP slots (zeros are empty: only |f| > 0 enters, as with
+ * top_insert): the root is the smallest kept, so a newcomer costs one
+ * compare and an entry a sift of 6 levels.  Sorting each chunk's newcomers
+ * instead cost a third of a 4096-point job (a 512-point block's first
+ * chunk brings 256 of them); inserting them one by one into the sorted
+ * list, a move each.  The heap is sorted once, at the block's end.
+ */
+static void heap_sift(double *h, size_t n, double v)
 {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x < y) - (x > y);
+    size_t i = 0;
+    for (;;) {
+        size_t l = 2 * i + 1, m = i;
+        double mv = v;
+        if (l < n && h[l] < mv)
+            m = l, mv = h[l];
+        if (l + 1 < n && h[l + 1] < mv)
+            m = l + 1, mv = h[l + 1];
+        if (m == i)
+            break;
+        h[i] = h[m];
+        i = m;
+    }
+    h[i] = v;
 }
 
-/* Adds the |f| of a chunk to the top list.  Inserting one by one costs a
- * search and a move per newcomer, and a block's first chunks bring
- * hundreds; so gather the chunk's newcomers, sort them, and merge. */
-static void top_add_chunk(double *top, const double *fv, size_t m)
+static void heap_offer(double *h, double v)
 {
-    double cand[CHUNK_MAX], merged[QMC_SAMPLING_TOP];
-    const double low = top[QMC_SAMPLING_TOP - 1];
-    size_t c = 0;
-    for (size_t k = 0; k < m; k++)
-        if (fabs(fv[k]) > low)
-            cand[c++] = fabs(fv[k]);
-    if (c == 0)
-        return;
-    qsort(cand, c, sizeof *cand, cmp_descending);
-    size_t i = 0, j = 0; /* i + j = o < QMC_SAMPLING_TOP: top[i] exists */
-    for (size_t o = 0; o < QMC_SAMPLING_TOP; o++)
-        merged[o] = j < c && cand[j] > top[i] ? cand[j++] : top[i++];
-    memcpy(top, merged, sizeof merged);
+    if (v > h[0])
+        heap_sift(h, QMC_SAMPLING_TOP, v);
+}
+
+/* Empties the heap into top, descending (the same list top_insert keeps). */
+static void heap_to_top(double *h, double *top)
+{
+    for (size_t n = QMC_SAMPLING_TOP; n > 0; n--) {
+        top[n - 1] = h[0];
+        heap_sift(h, n - 1, h[n - 1]);
+    }
 }
 
 void qmc__top_merge(double *a, const double *b)
@@ -350,7 +366,8 @@ void qmc__moments_merge(qmc_sampling_sums *a, const qmc_sampling_sums *b)
 
 /* Adds one point the slow way: any point of a chunk holding a non-finite
  * value.  Welford's update is Chan's merge with a block of one. */
-static void add_point(qmc_sampling_sums *out, uint64_t *finite, double fx, double gx)
+static void add_point(qmc_sampling_sums *out, double *heap, uint64_t *finite, double fx,
+                      double gx)
 {
     out->count++;
     if (!isfinite(fx) || !isfinite(gx)) {
@@ -367,7 +384,7 @@ static void add_point(qmc_sampling_sums *out, uint64_t *finite, double fx, doubl
     out->m2_f += df * (fx - out->mean_f);
     out->m2_g += dg * (gx - out->mean_g);
     out->c_fg += df * (gx - out->mean_g);
-    top_insert(out->top, fabs(fx));
+    heap_offer(heap, fabs(fx));
 }
 
 static int all_finite(const double *v, size_t m)
@@ -393,12 +410,13 @@ static double sum4(const double *v, size_t m)
 }
 
 /* Adds a chunk of m finite values f (and the control's values less its
- * integral, g, when not NULL).  The Neumaier sums run in index order, as add_point's do;
- * the moments are the chunk's own, two-pass, merged by Chan's update.
+ * integral, g, when not NULL).  The Neumaier sums run in index order, as
+ * add_point's do; the moments are the chunk's own, two-pass, merged by
+ * Chan's update.
  * Welford's per-point division was the block loop's critical path (two
  * thirds of an rqmc job's time on a cheap integrand). */
-static void add_finite_chunk(qmc_sampling_sums *out, uint64_t *finite, const double *fv,
-                             const double *gv, size_t m)
+static void add_finite_chunk(qmc_sampling_sums *out, double *heap, uint64_t *finite,
+                             const double *fv, const double *gv, size_t m)
 {
     /* Local copies: through out the sums would make a store-to-load
      * round trip per point, as the compiler cannot rule out aliasing. */
@@ -409,7 +427,8 @@ static void add_finite_chunk(qmc_sampling_sums *out, uint64_t *finite, const dou
     }
     memcpy(out->f, sf, sizeof sf);
     memcpy(out->absf, sa, sizeof sa);
-    top_add_chunk(out->top, fv, m);
+    for (size_t k = 0; k < m; k++)
+        heap_offer(heap, fabs(fv[k]));
     qmc_sampling_sums c = {.count = m};
     c.mean_f = sum4(fv, m) / (double)m;
     double m2[4] = {0, 0, 0, 0};
@@ -459,6 +478,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     double *fv = x + (size_t)job->chunk * d;
     double *gv = job->g ? fv + job->chunk : NULL;
     uint64_t finite = 0;
+    double heap[QMC_SAMPLING_TOP] = {0};
     for (uint64_t i0 = first; i0 < end; i0 += job->chunk) {
         size_t m = end - i0 < job->chunk ? (size_t)(end - i0) : job->chunk;
         int err = qmc_seq_fill(job->seqs[r], offset + i0, m, QMC_FORMAT_F64, x);
@@ -471,12 +491,13 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
                 gv[k] -= job->g->exact;
         }
         if (all_finite(fv, m) && (!gv || all_finite(gv, m))) {
-            add_finite_chunk(out, &finite, fv, gv, m);
+            add_finite_chunk(out, heap, &finite, fv, gv, m);
             continue;
         }
         for (size_t k = 0; k < m; k++)
-            add_point(out, &finite, fv[k], gv ? gv[k] : 0.0);
+            add_point(out, heap, &finite, fv[k], gv ? gv[k] : 0.0);
     }
+    heap_to_top(heap, out->top);
     return 0;
 }
 
