@@ -202,62 +202,45 @@ static int run_gk(const qmc_integrate_spec *spec, const qmc_integrand *f,
     return 0;
 }
 
-static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f,
+/* Genz-Malik cubature, or (cc) the tensor Clenshaw-Curtis rule, in a
+ * workspace of at most spec->max_memory bytes and never more than the
+ * budget can fill. */
+static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f, int cc,
                         qmc_integrate_report *rep, qmc__msg *why)
 {
     qmc_cubature_opts c = {.tol_abs = spec->tol_abs, .tol_rel = spec->tol_rel,
                            .max_evals = spec->max_evals, .interrupt = spec->interrupt};
     if (c.tol_abs == 0 && c.tol_rel == 0)
         c.tol_rel = 1e-8;
-    /* Never more memory than the budget can fill with regions. */
-    uint64_t region = qmc_cubature_region_evals(f->dims);
-    uint64_t regions = region ? spec->max_evals / region + 2 : 2;
-    if (regions > UINT32_MAX)
-        regions = UINT32_MAX;
-    size_t useful = qmc_cubature_workspace_bytes(f->dims, (uint32_t)regions);
-    size_t bytes = (size_t)spec->max_memory;
-    if (useful && bytes > useful)
-        bytes = useful;
-    void *ws = malloc(bytes ? bytes : 1);
-    if (!ws) {
-        qmc__msg_set(why, "out of memory for ", spec->max_memory, " bytes of cubature regions");
-        return QMC_ENOMEM;
+    size_t useful;
+    if (cc) {
+        useful = qmc_cubature_cc_workspace_bytes(f->dims, spec->max_evals);
+    } else {
+        uint64_t region = qmc_cubature_region_evals(f->dims);
+        uint64_t regions = region ? spec->max_evals / region + 2 : 2;
+        useful = qmc_cubature_workspace_bytes(
+            f->dims, regions > UINT32_MAX ? UINT32_MAX : (uint32_t)regions);
     }
-    int err = qmc_cubature(f, &c, ws, bytes, &rep->res, why->buf, why->cap);
-    free(ws);
-    if (err)
-        return err;
-    qmc__msg m;
-    qmc__msg_init(&m, rep->detail, sizeof rep->detail);
-    qmc__msg_set(&m, "Genz-Malik 7/5, ", spec->max_memory, "-byte region heap");
-    return 0;
-}
-
-static int run_cubature_cc(const qmc_integrate_spec *spec, const qmc_integrand *f,
-                           qmc_integrate_report *rep, qmc__msg *why)
-{
-    qmc_cubature_opts c = {.tol_abs = spec->tol_abs, .tol_rel = spec->tol_rel,
-                           .max_evals = spec->max_evals, .interrupt = spec->interrupt};
-    if (c.tol_abs == 0 && c.tol_rel == 0)
-        c.tol_rel = 1e-8;
-    /* Never more memory than the budget can fill. */
-    size_t useful = qmc_cubature_cc_workspace_bytes(f->dims, spec->max_evals);
     size_t bytes = (size_t)spec->max_memory;
     if (useful && bytes > useful)
         bytes = useful;
     void *ws = malloc(bytes ? bytes : 1);
     if (!ws) {
         qmc__msg_set(why, "out of memory for ", spec->max_memory,
-                     " bytes of Clenshaw-Curtis grid");
+                     cc ? " bytes of Clenshaw-Curtis grid" : " bytes of cubature regions");
         return QMC_ENOMEM;
     }
-    int err = qmc_cubature_cc(f, &c, ws, bytes, &rep->res, why->buf, why->cap);
+    int err = cc ? qmc_cubature_cc(f, &c, ws, bytes, &rep->res, why->buf, why->cap)
+                 : qmc_cubature(f, &c, ws, bytes, &rep->res, why->buf, why->cap);
     free(ws);
     if (err)
         return err;
     qmc__msg m;
     qmc__msg_init(&m, rep->detail, sizeof rep->detail);
-    qmc__msg_set(&m, "p-adaptive tensor Clenshaw-Curtis, ", rep->res.n, " grid points");
+    if (cc)
+        qmc__msg_set(&m, "p-adaptive tensor Clenshaw-Curtis, ", rep->res.n, " grid points");
+    else
+        qmc__msg_set(&m, "Genz-Malik 7/5, ", spec->max_memory, "-byte region heap");
     return 0;
 }
 
@@ -543,10 +526,8 @@ int qmc_integrate(const qmc_integrate_spec *spec, const qmc_integrand *f,
     case QMC_METHOD_GAUSS_KRONROD:
         return run_gk(&s, f, rep, &m); /* its jump floor keeps steps honest */
     case QMC_METHOD_CUBATURE:
-        err = run_cubature(&s, f, rep, &m);
-        break;
     case QMC_METHOD_CLENSHAW_CURTIS:
-        err = run_cubature_cc(&s, f, rep, &m);
+        err = run_cubature(&s, f, s.method == QMC_METHOD_CLENSHAW_CURTIS, rep, &m);
         break;
     case QMC_METHOD_MIDPOINT:
         err = run_tensor(&s, QMC_RULE1D_MIDPOINT, f, rep, &m);

@@ -210,14 +210,20 @@ static void test_flags(void **state)
     assert_true(r.flags & QMC_FLAG_FEW_REPS);
 }
 
+static qmc_sampling_spec rqmc_spec(uint64_t n, uint32_t reps)
+{
+    qmc_sampling_spec s;
+    qmc_sampling_spec_init(&s, QMC_SAMPLER_RQMC);
+    s.n = n;
+    s.reps = reps;
+    return s;
+}
+
 static void test_adaptive(void **state)
 {
     (void)state;
     qmc_integrand f = make_f(sum_squares, 3, 1.0);
-    qmc_sampling_spec s;
-    qmc_sampling_spec_init(&s, QMC_SAMPLER_RQMC);
-    s.n = 256;
-    s.reps = 8;
+    qmc_sampling_spec s = rqmc_spec(256, 8);
     qmc_result r, fixed;
     uint64_t n = 0;
     char why[200];
@@ -258,10 +264,7 @@ static void test_split_net(void **state)
 {
     (void)state;
     qmc_integrand f = make_f(step, 3, 0.3);
-    qmc_sampling_spec s;
-    qmc_sampling_spec_init(&s, QMC_SAMPLER_RQMC);
-    s.reps = 8;
-    s.n = 4096;
+    qmc_sampling_spec s = rqmc_spec(4096, 8);
     s.split_net = 1;
     /* The replicates cut one point set: 8 x 4096 and 4 x 8192 points give
      * the same estimate (up to the order of the sums), and a different
