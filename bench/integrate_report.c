@@ -328,15 +328,18 @@ static void honesty_table(const bench_rec *recs, size_t n, const bench_grid *g, 
         }
         print_honesty_row(bench_method_name((bench_method)m), h,
                           honesty_of_runs(recs, n, (bench_method)m, -1, -1, 1),
-                          m == BENCH_M_AUTO ? "(mixed: see its two choices)" : verdict);
+                          m == BENCH_M_AUTO ? "(mixed: see its choices)" : verdict);
         if (m == BENCH_M_AUTO) {
             /* auto's verdict is per choice: a good median over a mixture
              * would hide a bad one. */
-            static const qmc_method used[] = {QMC_METHOD_CUBATURE, QMC_METHOD_RQMC};
-            for (size_t u = 0; u < 2; u++) {
+            static const qmc_method used[] = {QMC_METHOD_CLENSHAW_CURTIS, QMC_METHOD_CUBATURE,
+                                              QMC_METHOD_RQMC};
+            for (size_t u = 0; u < sizeof used / sizeof used[0]; u++) {
                 char name[40];
                 snprintf(name, sizeof name, "  auto->%s", qmc_method_name(used[u]));
                 honesty hu = honesty_of(recs, n, BENCH_M_AUTO, (int)used[u], -1);
+                if (hu.count == 0) /* auto never chose it here */
+                    continue;
                 int ok = hu.count && hu.med >= 1 && hu.med <= 10;
                 *met += ok;
                 *missed += !ok;

@@ -94,8 +94,9 @@ typedef struct qmc_sampling_sums {
     uint64_t count;          /* points evaluated */
     uint64_t nonfinite;      /* of which non-finite (left out of all sums) */
     double f[2], absf[2], g[2];   /* Neumaier sums of f, |f|, g */
-    /* Welford moments of the finite points, combined across blocks with
-     * Chan's update: stable where sum f^2 - (sum f)^2 / n cancels. */
+    /* Moments of the finite points (per chunk two-pass, merged in index
+     * order and across blocks with Chan's update): stable where
+     * sum f^2 - (sum f)^2 / n cancels. */
     double mean_f, mean_g, m2_f, m2_g, c_fg;
     double top[QMC_SAMPLING_TOP];  /* largest |f|, descending, 0-padded */
 } qmc_sampling_sums;
