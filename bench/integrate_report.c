@@ -116,10 +116,12 @@ static const char *short_family(qmc_genz_family f)
 
 /* ---- auto against the best peer ----------------------------------------- */
 
-/* The complete peer cell of a family and d with the smallest median time
- * (the smaller error on a tie), or one with first == NULL. */
-static bench_cell fastest_peer(const bench_rec *recs, size_t n, const bench_grid *g,
-                               qmc_genz_family fam, uint32_t d)
+/* A complete peer cell of a family and d (any peer, any budget), or one
+ * with first == NULL: the most accurate of those that took at most
+ * `within` seconds, or, when within is NAN, the fastest (the more accurate
+ * on a tie). */
+static bench_cell peer_cell(const bench_rec *recs, size_t n, const bench_grid *g,
+                            qmc_genz_family fam, uint32_t d, double within)
 {
     bench_cell best = {0, 0, 0, NAN, NAN, -1, NULL};
     for (int m = 0; m < BENCH_M_COUNT; m++) {
@@ -127,9 +129,12 @@ static bench_cell fastest_peer(const bench_rec *recs, size_t n, const bench_grid
             continue;
         for (size_t pb = 0; pb < g->n_budgets; pb++) {
             bench_cell p = cell_of(recs, n, (bench_method)m, fam, d, g->budgets[pb]);
-            if (cell_complete(&p) &&
-                (!best.first || p.seconds < best.seconds ||
-                 (p.seconds == best.seconds && p.err < best.err)))
+            if (!cell_complete(&p))
+                continue;
+            int better = isnan(within) ? !best.first || p.seconds < best.seconds ||
+                                             (p.seconds == best.seconds && p.err < best.err)
+                                       : p.seconds <= within && (!best.first || p.err < best.err);
+            if (better)
                 best = p;
         }
     }
@@ -179,20 +184,10 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
                                 a.refused ? "refused" : "failed", target);
                     continue;
                 }
-                bench_cell best = {0, 0, 0, NAN, NAN, -1, NULL};
-                for (int m = 0; m < BENCH_M_COUNT; m++) {
-                    if (!bench_method_is_peer((bench_method)m))
-                        continue;
-                    for (size_t pb = 0; pb < g->n_budgets; pb++) {
-                        bench_cell p = cell_of(recs, n, (bench_method)m, fam, d, g->budgets[pb]);
-                        if (cell_complete(&p) && p.seconds <= a.seconds &&
-                            (!best.first || p.err < best.err))
-                            best = p;
-                    }
-                }
+                bench_cell best = peer_cell(recs, n, g, fam, d, a.seconds);
                 int dominates = 0;
                 if (!best.first) { /* faster than every peer: the fastest one */
-                    bench_cell fastest = fastest_peer(recs, n, g, fam, d);
+                    bench_cell fastest = peer_cell(recs, n, g, fam, d, NAN);
                     if (fastest.first && a.err <= target * fastest.err) {
                         best = fastest;
                         dominates = 1;
@@ -297,10 +292,10 @@ static honesty honesty_of(const bench_rec *recs, size_t n, bench_method m, int u
 static void print_honesty_row(const char *name, honesty h, honesty clear, const char *verdict)
 {
     if (h.count == 0) {
-        printf("  %-18s %5s  (no error estimate)\n", name, "0");
+        printf("  %-23s %5s  (no error estimate)\n", name, "0");
         return;
     }
-    printf("  %-18s %5zu %9.3g %9.3g %9.3g %9.3g %9.3g %6.0f%% | %5zu %9.3g %6.0f%%  %s\n", name,
+    printf("  %-23s %5zu %9.3g %9.3g %9.3g %9.3g %9.3g %6.0f%% | %5zu %9.3g %6.0f%%  %s\n", name,
            h.count, h.med, h.p10, h.p90, h.lo, h.hi, 100 * h.under, clear.count, clear.med,
            100 * clear.under, verdict);
 }
@@ -313,7 +308,7 @@ static void honesty_table(const bench_rec *recs, size_t n, const bench_grid *g, 
     printf("Target for ours: median in [1, 10].  'under' = runs whose bar is smaller than the "
            "actual error.\nRight of '|': only the runs whose actual error is above %.0e of "
            "int |f| (clear of rounding).\n\n", BENCH_HONESTY_CLEAR);
-    printf("  %-18s %5s %9s %9s %9s %9s %9s %7s | %5s %9s %7s\n", "method", "runs", "median",
+    printf("  %-23s %5s %9s %9s %9s %9s %9s %7s | %5s %9s %7s\n", "method", "runs", "median",
            "p10", "p90", "min", "max", "under", "runs", "median", "under");
     if (csv)
         fprintf(csv, "method,family,runs,median,p10,p90,min,max,under_fraction\n");
