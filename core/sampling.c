@@ -17,6 +17,7 @@
 
 #include "bits.h"
 #include "msg.h"
+#include "lane_sum.h"
 #include "neumaier.h"
 #include "sampling_impl.h"
 
@@ -295,44 +296,104 @@ static void top_insert(double *top, double v)
 }
 
 /*
- * While a block runs, its largest |f| live in a min-heap of
- * QMC_SAMPLING_TOP slots (zeros are empty: only |f| > 0 enters, as with
- * top_insert): the root is the smallest kept, so a newcomer costs one
- * compare and an entry a sift of 6 levels.  Sorting each chunk's newcomers
- * instead cost a third of a 4096-point job (a 512-point block's first
- * chunk brings 256 of them); inserting them one by one into the sorted
- * list, a move each.  The heap is sorted once, at the block's end.
+ * While a block runs, candidates for its largest |f| collect in a pool:
+ * a value is written to the next free slot and kept when it beats the
+ * pool's floor (a store and a compare, no branch).  When the pool is full
+ * a selection keeps the QMC_SAMPLING_TOP largest and raises the floor to
+ * the smallest of them; a block of 4096 values fills it about three times.
+ * (A min-heap cost a sixth of a cheap integrand's job, in the mispredicted
+ * branches of its sifts.)  The list the block reports is the same either
+ * way: its largest values, descending, zeros where there are fewer.
  */
-static void heap_sift(double *h, size_t n, double v)
+enum { POOL = 4 * QMC_SAMPLING_TOP };
+
+typedef struct {
+    double v[POOL + 1]; /* + 1: where a value that is not kept lands */
+    size_t n;
+    double floor; /* a value at or below it cannot be among the largest */
+} top_pool;
+
+static double median3(double a, double b, double c)
 {
-    size_t i = 0;
-    for (;;) {
-        size_t l = 2 * i + 1, m = i;
-        double mv = v;
-        if (l < n && h[l] < mv)
-            m = l, mv = h[l];
-        if (l + 1 < n && h[l + 1] < mv)
-            m = l + 1, mv = h[l + 1];
-        if (m == i)
-            break;
-        h[i] = h[m];
-        i = m;
+    return a < b ? (b < c ? b : a < c ? c : a) : (a < c ? a : b < c ? c : b);
+}
+
+/* Moves the values of v[lo .. hi) that pass keep (> p, or >= p) to the
+ * front and returns where the rest begin: Lomuto's partition without a
+ * branch (each step swaps, and the front grows when the value passed),
+ * as the comparisons are unpredictable. */
+static size_t partition_front(double *v, size_t lo, size_t hi, double p, int or_equal)
+{
+    size_t a = lo;
+    for (size_t i = lo; i < hi; i++) {
+        double x = v[i];
+        int keep = or_equal ? x >= p : x > p;
+        v[i] = v[a];
+        v[a] = x;
+        a += (size_t)keep;
     }
-    h[i] = v;
+    return a;
 }
 
-static void heap_offer(double *h, double v)
+/* Rearranges v[0 .. n) so that v[0 .. k) holds k largest values
+ * (quickselect).  Everything left of lo is at least everything in
+ * [lo, hi), which is at least everything from hi on. */
+static void select_largest(double *v, size_t n, size_t k)
 {
-    if (v > h[0])
-        heap_sift(h, QMC_SAMPLING_TOP, v);
+    size_t lo = 0, hi = n;
+    while (hi - lo > 1) {
+        const double p = median3(v[lo], v[lo + (hi - lo) / 2], v[hi - 1]);
+        size_t a = partition_front(v, lo, hi, p, 0); /* [lo, a) > p */
+        if (a == lo) { /* p is the largest here: take its copies instead */
+            a = partition_front(v, lo, hi, p, 1);
+            if (k <= a)
+                return;
+            lo = a;
+        } else if (k < a) {
+            hi = a;
+        } else if (k == a) {
+            return;
+        } else {
+            lo = a;
+        }
+    }
 }
 
-/* Empties the heap into top, descending (the same list top_insert keeps). */
-static void heap_to_top(double *h, double *top)
+/* Keeps the QMC_SAMPLING_TOP largest; the floor becomes their smallest. */
+static void pool_compact(top_pool *p)
 {
-    for (size_t n = QMC_SAMPLING_TOP; n > 0; n--) {
-        top[n - 1] = h[0];
-        heap_sift(h, n - 1, h[n - 1]);
+    select_largest(p->v, p->n, QMC_SAMPLING_TOP);
+    p->n = QMC_SAMPLING_TOP;
+    double lo = p->v[0];
+    for (size_t k = 1; k < QMC_SAMPLING_TOP; k++)
+        lo = p->v[k] < lo ? p->v[k] : lo;
+    p->floor = lo;
+}
+
+static void pool_offer(top_pool *p, const double *fv, size_t m)
+{
+    for (size_t k = 0; k < m; k++) {
+        double a = fabs(fv[k]);
+        p->v[p->n] = a;
+        p->n += a > p->floor;
+        if (p->n == POOL)
+            pool_compact(p);
+    }
+}
+
+/* The block's list: the largest values, descending (an insertion sort of
+ * at most QMC_SAMPLING_TOP), zero-padded. */
+static void pool_to_top(top_pool *p, double *top)
+{
+    if (p->n > QMC_SAMPLING_TOP)
+        pool_compact(p);
+    memset(top, 0, QMC_SAMPLING_TOP * sizeof *top);
+    for (size_t k = 0; k < p->n; k++) {
+        double x = p->v[k];
+        size_t j = k;
+        for (; j > 0 && top[j - 1] < x; j--)
+            top[j] = top[j - 1];
+        top[j] = x;
     }
 }
 
@@ -364,36 +425,12 @@ void qmc__moments_merge(qmc_sampling_sums *a, const qmc_sampling_sums *b)
     a->c_fg += b->c_fg + df * dg * w;
 }
 
-/* Adds one point the slow way: any point of a chunk holding a non-finite
- * value.  Welford's update is Chan's merge with a block of one. */
-static void add_point(qmc_sampling_sums *out, double *heap, uint64_t *finite, double fx,
-                      double gx)
-{
-    out->count++;
-    if (!isfinite(fx) || !isfinite(gx)) {
-        out->nonfinite++;
-        return;
-    }
-    qmc__sum_add(out->f, fx);
-    qmc__sum_add(out->absf, fabs(fx));
-    qmc__sum_add(out->g, gx);
-    ++*finite;
-    double df = fx - out->mean_f, dg = gx - out->mean_g;
-    out->mean_f += df / (double)*finite;
-    out->mean_g += dg / (double)*finite;
-    out->m2_f += df * (fx - out->mean_f);
-    out->m2_g += dg * (gx - out->mean_g);
-    out->c_fg += df * (gx - out->mean_g);
-    heap_offer(heap, fabs(fx));
-}
-
-static int all_finite(const double *v, size_t m)
-{
-    int ok = 1;
-    for (size_t k = 0; k < m; k++)
-        ok &= isfinite(v[k]) != 0;
-    return ok;
-}
+/* A block's running sums: f, |f| and g in four lanes each (lane_sum.h),
+ * folded into the block's Neumaier pairs when it ends. */
+typedef struct {
+    qmc__lane_sum f, absf, g;
+    top_pool top;
+} block_acc;
 
 /* Sum of v[0 .. m) in four interleaved chains (a fixed order, so the same
  * bits every run; the chains let the adds overlap). */
@@ -410,25 +447,22 @@ static double sum4(const double *v, size_t m)
 }
 
 /* Adds a chunk of m finite values f (and the control's values less its
- * integral, g, when not NULL).  The Neumaier sums run in index order, as
- * add_point's do; the moments are the chunk's own, two-pass, merged by
- * Chan's update.
- * Welford's per-point division was the block loop's critical path (two
- * thirds of an rqmc job's time on a cheap integrand). */
-static void add_finite_chunk(qmc_sampling_sums *out, double *heap, uint64_t *finite,
-                             const double *fv, const double *gv, size_t m)
+ * integral, g, when not NULL): value k of the chunk goes to lane k % 4 of
+ * each sum, and the moments are the chunk's own, two-pass, merged by
+ * Chan's update.  (Welford's per-point division and then the one chain of
+ * each Neumaier sum were the block loop's critical path.) */
+static void add_finite_chunk(qmc_sampling_sums *out, block_acc *acc, const double *fv,
+                             const double *gv, size_t m)
 {
-    /* Local copies: through out the sums would make a store-to-load
-     * round trip per point, as the compiler cannot rule out aliasing. */
-    double sf[2] = {out->f[0], out->f[1]}, sa[2] = {out->absf[0], out->absf[1]};
-    for (size_t k = 0; k < m; k++) {
-        qmc__sum_add(sf, fv[k]);
-        qmc__sum_add(sa, fabs(fv[k]));
+    qmc__lane_sum sf = acc->f, sa = acc->absf; /* in registers, not through acc */
+    for (size_t k = 0; k < m; k += 4) {
+        qmc__f64x4 x = qmc__lane_load(fv, k, m);
+        qmc__lane_add(&sf, x);
+        qmc__lane_add(&sa, qmc__lane_abs(x));
     }
-    memcpy(out->f, sf, sizeof sf);
-    memcpy(out->absf, sa, sizeof sa);
-    for (size_t k = 0; k < m; k++)
-        heap_offer(heap, fabs(fv[k]));
+    acc->f = sf;
+    acc->absf = sa;
+    pool_offer(&acc->top, fv, m);
     qmc_sampling_sums c = {.count = m};
     c.mean_f = sum4(fv, m) / (double)m;
     double m2[4] = {0, 0, 0, 0};
@@ -442,10 +476,10 @@ static void add_finite_chunk(qmc_sampling_sums *out, double *heap, uint64_t *fin
         m2[0] += (fv[k] - c.mean_f) * (fv[k] - c.mean_f);
     c.m2_f = (m2[0] + m2[1]) + (m2[2] + m2[3]);
     if (gv) {
-        double sg[2] = {out->g[0], out->g[1]};
-        for (k = 0; k < m; k++)
-            qmc__sum_add(sg, gv[k]);
-        memcpy(out->g, sg, sizeof sg);
+        qmc__lane_sum sg = acc->g;
+        for (k = 0; k < m; k += 4)
+            qmc__lane_add(&sg, qmc__lane_load(gv, k, m));
+        acc->g = sg;
         c.mean_g = sum4(gv, m) / (double)m;
         for (k = 0; k < m; k++) {
             double eg = gv[k] - c.mean_g;
@@ -455,7 +489,30 @@ static void add_finite_chunk(qmc_sampling_sums *out, double *heap, uint64_t *fin
     }
     qmc__moments_merge(out, &c);
     out->count += m;
-    *finite += m;
+}
+
+static int all_finite(const double *v, size_t m)
+{
+    int ok = 1;
+    for (size_t k = 0; k < m; k++)
+        ok &= isfinite(v[k]) != 0;
+    return ok;
+}
+
+/* Drops the points whose f or g value is not finite, keeping the order,
+ * and returns how many remain. */
+static size_t drop_nonfinite(double *fv, double *gv, size_t m)
+{
+    size_t kept = 0;
+    for (size_t k = 0; k < m; k++) {
+        if (!isfinite(fv[k]) || (gv && !isfinite(gv[k])))
+            continue;
+        fv[kept] = fv[k];
+        if (gv)
+            gv[kept] = gv[k];
+        kept++;
+    }
+    return kept;
 }
 
 int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
@@ -477,8 +534,8 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     double *x = workspace;
     double *fv = x + (size_t)job->chunk * d;
     double *gv = job->g ? fv + job->chunk : NULL;
-    uint64_t finite = 0;
-    double heap[QMC_SAMPLING_TOP] = {0};
+    block_acc acc;
+    memset(&acc, 0, sizeof acc);
     for (uint64_t i0 = first; i0 < end; i0 += job->chunk) {
         size_t m = end - i0 < job->chunk ? (size_t)(end - i0) : job->chunk;
         int err = qmc_seq_fill(job->seqs[r], offset + i0, m, QMC_FORMAT_F64, x);
@@ -490,14 +547,19 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
             for (size_t k = 0; k < m; k++)
                 gv[k] -= job->g->exact;
         }
-        if (all_finite(fv, m) && (!gv || all_finite(gv, m))) {
-            add_finite_chunk(out, heap, &finite, fv, gv, m);
-            continue;
+        size_t kept = m;
+        if (!all_finite(fv, m) || (gv && !all_finite(gv, m))) {
+            kept = drop_nonfinite(fv, gv, m);
+            out->count += m - kept;
+            out->nonfinite += m - kept;
         }
-        for (size_t k = 0; k < m; k++)
-            add_point(out, heap, &finite, fv[k], gv ? gv[k] : 0.0);
+        if (kept > 0)
+            add_finite_chunk(out, &acc, fv, gv, kept);
     }
-    heap_to_top(heap, out->top);
+    qmc__lane_fold(&acc.f, out->f);
+    qmc__lane_fold(&acc.absf, out->absf);
+    qmc__lane_fold(&acc.g, out->g);
+    pool_to_top(&acc.top, out->top);
     return 0;
 }
 
