@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "qmc/sampling.h"
+#include "qmc/seq.h"
 
 /* f(x) = sum_j x_j^2, integral dims/3. */
 static void sum_squares(const void *ctx, const double *x, size_t n, uint32_t d, double *out)
@@ -108,6 +109,93 @@ static void test_estimates_inside_intervals(void **state)
 }
 
 /* Blocks computed in any order, in any groups, give the same bits. */
+/* Values on a coarse grid (many ties), zero on a fifth of the cube, NaN
+ * on a twentieth, negative below 0.3: what a block's top list and sums
+ * must get right. */
+static double coarse_value(const double *x)
+{
+    if (x[1] < 0.05)
+        return NAN;
+    if (x[1] > 0.8)
+        return 0.0;
+    return floor(x[0] * 500.0) / 500.0 - 0.3;
+}
+
+static void coarse(const void *ctx, const double *x, size_t n, uint32_t d, double *out)
+{
+    (void)ctx;
+    for (size_t i = 0; i < n; i++)
+        out[i] = coarse_value(x + i * d);
+}
+
+static int by_descending(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x < y) - (x > y);
+}
+
+/* Each block's count, sums, moments and top list against a direct
+ * computation over the same points (plain Sobol: the qmc sampler). */
+static void test_block_sums_match_reference(void **state)
+{
+    (void)state;
+    qmc_integrand f = make_f(coarse, 2, 0.0);
+    qmc_sampling_spec s;
+    qmc_sampling_spec_init(&s, QMC_SAMPLER_QMC);
+    s.n = QMC_SAMPLING_BLOCK + 1001; /* a partial block, a partial chunk, an odd tail */
+    qmc_sampling_job *job = NULL;
+    assert_int_equal(qmc_sampling_job_new(&s, &f, NULL, &job, NULL, 0), 0);
+    size_t bytes = qmc_sampling_workspace_bytes(job);
+    void *ws = malloc(bytes);
+    qmc_seq_spec q = {.kind = QMC_SEQ_SOBOL, .dims = 2, .scramble = QMC_SCRAMBLE_NONE};
+    qmc_seq *seq = NULL;
+    assert_int_equal(qmc_seq_new(&q, &seq), 0);
+    double *x = malloc(s.n * 2 * sizeof *x), *all = malloc(s.n * sizeof *all);
+    assert_int_equal(qmc_seq_fill(seq, 0, s.n, QMC_FORMAT_F64, x), 0);
+    for (uint64_t b = 0; b < 2; b++) {
+        qmc_sampling_sums got;
+        assert_int_equal(qmc_sampling_run_block(job, b, ws, bytes, &got), 0);
+        uint64_t first = b * QMC_SAMPLING_BLOCK, end = b ? s.n : QMC_SAMPLING_BLOCK;
+        long double sum = 0, sum_abs = 0;
+        size_t finite = 0, nan = 0;
+        for (uint64_t i = first; i < end; i++) {
+            double v = coarse_value(x + 2 * i);
+            if (isnan(v)) {
+                nan++;
+                continue;
+            }
+            sum += v;
+            sum_abs += fabs(v);
+            all[finite++] = v;
+        }
+        long double mean = sum / finite, m2 = 0;
+        for (size_t k = 0; k < finite; k++)
+            m2 += (all[k] - mean) * (all[k] - mean);
+        assert_int_equal(got.count, end - first);
+        assert_int_equal(got.nonfinite, nan);
+        assert_true(nan > 0 && finite > QMC_SAMPLING_TOP);
+        assert_true(fabsl(got.f[0] + got.f[1] - sum) <= 1e-15L * sum_abs);
+        assert_true(fabsl(got.absf[0] + got.absf[1] - sum_abs) <= 1e-15L * sum_abs);
+        assert_true(fabsl(got.mean_f - mean) <= 1e-14L);
+        assert_true(fabsl(got.m2_f - m2) <= 1e-12L * m2);
+        /* The top list: the largest |f|, descending, ties kept, zeros out. */
+        for (size_t k = 0; k < finite; k++)
+            all[k] = fabs(all[k]);
+        qsort(all, finite, sizeof *all, by_descending);
+        double want[QMC_SAMPLING_TOP] = {0};
+        for (size_t k = 0; k < QMC_SAMPLING_TOP && all[k] > 0.0; k++)
+            want[k] = all[k];
+        assert_memory_equal(got.top, want, sizeof want);
+        int ties = 0;
+        for (size_t k = 1; k < QMC_SAMPLING_TOP; k++)
+            ties += want[k] == want[k - 1];
+        assert_true(ties > 0);
+    }
+    qmc_seq_free(seq);
+    free(x), free(all), free(ws);
+    qmc_sampling_job_free(job);
+}
+
 static void test_block_order_does_not_matter(void **state)
 {
     (void)state;
@@ -354,6 +442,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_estimates_inside_intervals),
+        cmocka_unit_test(test_block_sums_match_reference),
         cmocka_unit_test(test_block_order_does_not_matter),
         cmocka_unit_test(test_control_variate),
         cmocka_unit_test(test_flags),
