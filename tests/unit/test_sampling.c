@@ -395,18 +395,36 @@ static void test_split_net(void **state)
     assert_null(job);
 }
 
+/* |q - want| <= tol |want| */
+static void assert_quantile(double level, double df, double want, double tol)
+{
+    double q = qmc_student_t_quantile(level, df);
+    if (!(fabs(q - want) <= tol * fabs(want)))
+        fail_msg("t quantile(%g, df %g) = %.17g, want %.17g", level, df, q, want);
+}
+
 static void test_student_t(void **state)
 {
     (void)state;
-    /* Tables: t_{0.975} for df 1, 7, 30; the normal 1.959964. */
-    assert_true(fabs(qmc_student_t_quantile(0.95, 1) - 12.706204736) < 1e-7);
-    assert_true(fabs(qmc_student_t_quantile(0.95, 7) - 2.364624252) < 1e-8);
-    assert_true(fabs(qmc_student_t_quantile(0.95, 30) - 2.042272456) < 1e-8);
-    assert_true(fabs(qmc_student_t_quantile(0.95, 1e9) - 1.959963985) < 1e-7);
-    assert_true(fabs(qmc_student_t_quantile(0.95, 1e15) - 1.959963985) < 1e-7);
-    assert_true(fabs(qmc_student_t_quantile(0.95, 1e5) - 1.959987708) < 1e-8);
-    assert_true(fabs(qmc_student_t_quantile(0.99, 15) - 2.946712883) < 1e-8);
+    /* References: mpmath 1.2 at 40 digits, findroot on 1 - betainc(df/2,
+     * 1/2, 0, df/(df+t^2)) at the double nearest each level (scipy 1.10's
+     * t.ppf is off by up to 1e-9 here, and so, before, were we: 3e-8). */
+    assert_quantile(0.95, 1, 12.706204736174693, 1e-14);
+    assert_quantile(0.95, 2, 4.3026527297494618, 1e-14);
+    assert_quantile(0.95, 7, 2.3646242515927847, 1e-14);
+    assert_quantile(0.95, 15, 2.1314495455597752, 1e-14);
+    assert_quantile(0.95, 30, 2.0422724563012379, 1e-14);
+    assert_quantile(0.99, 15, 2.9467128834752385, 1e-14);
+    assert_quantile(0.5, 3, 0.76489232840434528, 1e-14);
+    assert_quantile(0.1, 12, 0.12834738079561133, 1e-14);
+    assert_quantile(0.999999, 7, 15.767009437416195, 1e-14); /* solved in the tail */
+    assert_quantile(0.95, 0.5, 164.55767348048824, 1e-11);
+    assert_quantile(0.95, 1e5, 1.9599877075346093, 1e-12);
+    /* Past 1e7 degrees of freedom: the normal quantile, 1.959963984540054. */
+    assert_quantile(0.95, 1e9, 1.959963984540054, 1e-7);
+    assert_quantile(0.95, 1e15, 1.959963984540054, 1e-15);
     assert_true(isnan(qmc_student_t_quantile(1.5, 3)));
+    assert_true(isnan(qmc_student_t_quantile(0.95, 0)));
 }
 
 static void test_errors(void **state)
