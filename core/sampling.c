@@ -432,39 +432,53 @@ typedef struct {
     top_pool top;
 } block_acc;
 
-/* Sum of v[0 .. m) in four interleaved chains (a fixed order, so the same
- * bits every run; the chains let the adds overlap). */
-static double sum4(const double *v, size_t m)
+/* Sum of the lanes of v, in a fixed order. */
+static double lanes_total(qmc__f64x4 v)
 {
-    double a[4] = {0, 0, 0, 0};
-    size_t k = 0;
-    for (; k + 4 <= m; k += 4)
-        for (int l = 0; l < 4; l++)
-            a[l] += v[k + (size_t)l];
-    for (; k < m; k++)
-        a[0] += v[k];
-    return (a[0] + a[1]) + (a[2] + a[3]);
+    return (v[0] + v[1]) + (v[2] + v[3]);
 }
 
-/* Adds a chunk of m finite values f (and the control's values less its
- * integral, g, when not NULL): value k of the chunk goes to lane k % 4 of
- * each sum, and the moments are the chunk's own, two-pass, merged by
- * Chan's update.  (Welford's per-point division and then the one chain of
- * each Neumaier sum were the block loop's critical path.) */
-static void add_finite_chunk(qmc_sampling_sums *out, block_acc *acc, const double *fv,
-                             const double *gv, size_t m)
+static int lanes_finite(qmc__f64x4 v)
 {
-    qmc__lane_sum sf = acc->f, sa = acc->absf; /* in registers, not through acc */
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]) && isfinite(v[3]);
+}
+
+/* Adds a chunk of m values f (and the control's values less its integral,
+ * g, when not NULL): value k of the chunk goes to lane k % 4 of each sum,
+ * and the moments are the chunk's own, two-pass (the first pass is the
+ * lanes' own), merged by Chan's update.  (Welford's per-point division and
+ * then the one chain of each Neumaier sum were the block loop's critical
+ * path.)  Unless checked is set, a chunk with a value that is not finite
+ * - its |f| or g lanes stop being finite - is left out and 0 returned:
+ * the caller drops those points and adds the rest with checked set. */
+static int add_chunk(qmc_sampling_sums *out, block_acc *acc, const double *fv,
+                     const double *gv, size_t m, int checked)
+{
+    qmc__lane_sum sf = acc->f, sa = acc->absf, sg = acc->g; /* in registers */
+    qmc__f64x4 plain_f = {0, 0, 0, 0}, plain_g = plain_f;
     for (size_t k = 0; k < m; k += 4) {
         qmc__f64x4 x = qmc__lane_load(fv, k, m);
         qmc__lane_add(&sf, x);
         qmc__lane_add(&sa, qmc__lane_abs(x));
+        plain_f += x;
+    }
+    if (!checked && !lanes_finite(sa.s))
+        return 0;
+    if (gv) {
+        for (size_t k = 0; k < m; k += 4) {
+            qmc__f64x4 x = qmc__lane_load(gv, k, m);
+            qmc__lane_add(&sg, x);
+            plain_g += x;
+        }
+        if (!checked && !lanes_finite(sg.s))
+            return 0;
     }
     acc->f = sf;
     acc->absf = sa;
+    acc->g = sg;
     pool_offer(&acc->top, fv, m);
     qmc_sampling_sums c = {.count = m};
-    c.mean_f = sum4(fv, m) / (double)m;
+    c.mean_f = lanes_total(plain_f) / (double)m;
     double m2[4] = {0, 0, 0, 0};
     size_t k = 0;
     for (; k + 4 <= m; k += 4)
@@ -476,11 +490,7 @@ static void add_finite_chunk(qmc_sampling_sums *out, block_acc *acc, const doubl
         m2[0] += (fv[k] - c.mean_f) * (fv[k] - c.mean_f);
     c.m2_f = (m2[0] + m2[1]) + (m2[2] + m2[3]);
     if (gv) {
-        qmc__lane_sum sg = acc->g;
-        for (k = 0; k < m; k += 4)
-            qmc__lane_add(&sg, qmc__lane_load(gv, k, m));
-        acc->g = sg;
-        c.mean_g = sum4(gv, m) / (double)m;
+        c.mean_g = lanes_total(plain_g) / (double)m;
         for (k = 0; k < m; k++) {
             double eg = gv[k] - c.mean_g;
             c.m2_g += eg * eg;
@@ -489,14 +499,7 @@ static void add_finite_chunk(qmc_sampling_sums *out, block_acc *acc, const doubl
     }
     qmc__moments_merge(out, &c);
     out->count += m;
-}
-
-static int all_finite(const double *v, size_t m)
-{
-    int ok = 1;
-    for (size_t k = 0; k < m; k++)
-        ok &= isfinite(v[k]) != 0;
-    return ok;
+    return 1;
 }
 
 /* Drops the points whose f or g value is not finite, keeping the order,
@@ -547,14 +550,13 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
             for (size_t k = 0; k < m; k++)
                 gv[k] -= job->g->exact;
         }
-        size_t kept = m;
-        if (!all_finite(fv, m) || (gv && !all_finite(gv, m))) {
-            kept = drop_nonfinite(fv, gv, m);
-            out->count += m - kept;
-            out->nonfinite += m - kept;
-        }
+        if (add_chunk(out, &acc, fv, gv, m, 0))
+            continue;
+        size_t kept = drop_nonfinite(fv, gv, m);
+        out->count += m - kept;
+        out->nonfinite += m - kept;
         if (kept > 0)
-            add_finite_chunk(out, &acc, fv, gv, kept);
+            add_chunk(out, &acc, fv, gv, kept, 1);
     }
     qmc__lane_fold(&acc.f, out->f);
     qmc__lane_fold(&acc.absf, out->absf);
