@@ -16,6 +16,7 @@
  *   cubature out of region memory                  memory_bound + not_converged
  *   a tensor rule whose cost exceeds the budget    QMC_EBUDGET, refused first
  *   gauss-kronrod on a 2D integrand                QMC_EDIMS
+ *   a rule's bar across a kink or a jump           error_unreliable
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -172,6 +173,20 @@ static void test_refusals(void **state)
     assert_non_null(strstr(o.why, "1D"));
 }
 
+/* Two polynomial rules can agree across a kink while both are wrong:
+ * the bar of an integrand declared continuous (Genz continuous) is
+ * flagged, that of an analytic one (Genz gaussian) is not. */
+static void test_rule_bar_across_kink(void **state)
+{
+    (void)state;
+    run_out o = run("genz-continuous", 3, QMC_METHOD_CUBATURE, NULL);
+    assert_int_equal(o.err, 0);
+    ASSERT_FLAGS(o, QMC_FLAG_ERROR_UNRELIABLE);
+    o = run("genz-gaussian", 3, QMC_METHOD_CUBATURE, NULL);
+    assert_int_equal(o.err, 0);
+    assert_false(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+}
+
 /* The control: a smooth integrand by RQMC raises no flag at all. */
 static void test_clean_run_raises_nothing(void **state)
 {
@@ -237,6 +252,7 @@ int main(void)
         cmocka_unit_test(test_sampling_budget),
         cmocka_unit_test(test_cubature_memory_bound),
         cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_rule_bar_across_kink),
         cmocka_unit_test(test_clean_run_raises_nothing),
         cmocka_unit_test(test_auto_choice),
     };
