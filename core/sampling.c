@@ -308,7 +308,7 @@ static void top_insert(double *top, double v)
 enum { POOL = 4 * QMC_SAMPLING_TOP };
 
 typedef struct {
-    double v[POOL + 1]; /* + 1: where a value that is not kept lands */
+    double v[POOL]; /* v[n] takes each new value, kept or not */
     size_t n;
     double floor; /* a value at or below it cannot be among the largest */
 } top_pool;

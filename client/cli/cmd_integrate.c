@@ -51,8 +51,8 @@ static const char integrate_help[] =
     "  --reps R          independent replicates (rqmc default 16)\n"
     "  --split-net       rqmc: the replicates are consecutive blocks of one\n"
     "                    scrambled sequence - the accuracy of one net of R n\n"
-    "                    points, and a conservative bar (auto's choice when the\n"
-    "                    integrand has jumps)\n"
+    "                    points, and a conservative bar (auto's choice with\n"
+    "                    jumps, and from 4096 points a replicate without)\n"
     "  --seq, --scramble sequence and scramble for qmc/rqmc (sobol, owen)\n"
     "  --seed X          seeds the sampling and --difficulty\n"
     "  --control NAME    a control variate with known integral (same D, a, u)\n"
@@ -252,8 +252,8 @@ int cli_integrate_defaults(cli_integrate *o, const cli_problem *p)
 {
     qmc_sampler s;
     if (o->spec.split_net && strcmp(o->method, "rqmc") != 0)
-        return cli_error("--split-net is for rqmc (auto splits a net by itself when the "
-                         "integrand has jumps), not %s", o->method), -1;
+        return cli_error("--split-net is for rqmc (auto decides by itself), not %s",
+                         o->method), -1;
     if (qmc_sampler_parse(o->method, &s) != 0)
         return 0;
     qmc_sampling_spec d;
