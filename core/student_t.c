@@ -3,12 +3,12 @@
  *
  * P(|T_nu| <= t) = 1 - I_x(nu/2, 1/2) with x = nu / (nu + t^2), where I is
  * the regularized incomplete beta function, evaluated by its continued
- * fraction (modified Lentz).  The quantile is found by bisection, which is
- * slow by textbook standards (a few hundred evaluations) but runs once per
- * result, and is deterministic and robust.  Accuracy: about 1e-8
- * relative against SciPy's t.ppf for nu from 1 to 1e7 (more than enough
- * for an interval's multiplier); above 1e7, the normal quantile.  log Gamma
- * is our own Lanczos sum: the C library's lgamma writes the global signgam.
+ * fraction (modified Lentz).  The quantile is found by Newton's method
+ * inside a bracket, in the tail for levels above 1/2.  Accuracy, against
+ * mpmath at 40 digits: 1e-14 relative for nu from 1 to 30 and levels from
+ * 0.1 to 0.999999, 1e-12 at nu = 1e5 (test_sampling); above 1e7, the
+ * normal quantile.  log Gamma is our own (Stirling past 10): the C
+ * library's lgamma writes the global signgam.
  */
 #include <math.h>
 
