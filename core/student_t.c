@@ -106,6 +106,14 @@ static double inc_beta_half(double a, double x, double y)
     return 1.0 - front * beta_cf(b, a, y) / b;
 }
 
+/* Past 1e7 degrees of freedom the normal distribution stands in (see
+ * t_prob): one test, so the probability, the density and its constant
+ * always agree on which distribution they describe. */
+static int is_normal(double df)
+{
+    return df > 1e7;
+}
+
 /* P(|T_df| <= t) = 1 - I_x(df/2, 1/2), x = df / (df + t^2); with
  * upper, the tail P(|T_df| > t) = I_x(df/2, 1/2) itself, accurate where
  * the central probability is 1 less something tiny.  Past 1e7 degrees
@@ -114,7 +122,7 @@ static double inc_beta_half(double a, double x, double y)
  * parameters: there P(|Z| <= z) = erf(z / sqrt 2). */
 static double t_prob(double t, double df, int upper)
 {
-    if (df > 1e7)
+    if (is_normal(df))
         return upper ? erfc(t * 0.70710678118654752440) : erf(t * 0.70710678118654752440);
     double x = df / (df + t * t), y = t * t / (df + t * t);
     double tail = inc_beta_half(df / 2.0, x, y);
@@ -124,7 +132,7 @@ static double t_prob(double t, double df, int upper)
 /* The density of |T_df| at t, 2 f(t), given the log of f's constant. */
 static double t_abs_density(double t, double df, double ln_c)
 {
-    if (df > 1e7)
+    if (is_normal(df))
         return 2.0 * exp(ln_c - 0.5 * t * t);
     return 2.0 * exp(ln_c - 0.5 * (df + 1.0) * log1p(t * t / df));
 }
@@ -133,7 +141,7 @@ double qmc_student_t_quantile(double level, double df)
 {
     if (!(level > 0.0 && level < 1.0) || !(df > 0.0))
         return NAN;
-    const double ln_c = df > 1e7 ? -0.91893853320467274178 /* ln 1/sqrt(2 pi) */
+    const double ln_c = is_normal(df) ? -0.91893853320467274178 /* ln 1/sqrt(2 pi) */
                                  : log_gamma(0.5 * (df + 1.0)) - log_gamma(0.5 * df) -
                                        0.5 * log(df * 3.14159265358979323846);
     /* Above 1/2 solve for the tail, 1 - level (exact: Sterbenz), so that
