@@ -38,9 +38,8 @@ static int sobol_check(const qmc_seq_spec *spec, qmc__msg *why)
 
 static size_t sobol_table_bytes(const qmc_seq_spec *spec)
 {
-    size_t d = spec->dims;
-    return u32_words(d) * sizeof(uint32_t) +
-           (has_w64(spec) ? ((size_t)BITS + 1) * d * sizeof(uint64_t) : 0);
+    return (u32_words(spec->dims) + w64_words(spec) + packed_words(spec)) *
+           sizeof(uint32_t);
 }
 
 /* Direction numbers v[0..31] of dimension dim (0-based), scaled so that
@@ -96,6 +95,14 @@ static void sobol_init(qmc_seq *seq)
         uint64_t *w64 = (uint64_t *)(t + u32_words(d));
         for (size_t k = 0; k < ((size_t)BITS + 1) * d; k++)
             w64[k] = (uint64_t)wt[k] << 20;
+    }
+    if (has_packed(spec)) {
+        uint32_t *packed = t + u32_words(d) + w64_words(spec);
+        const size_t lanes = 8 * d;
+        for (size_t r = 0; r + 1 < QMC__SOBOL_PACK_ROWS; r++)
+            for (size_t q = 0; q < lanes; q++)
+                packed[r * lanes + q] = wt[(3 + r) * d + q % d] ^ wt[2 * d + q % d];
+        memset(packed + (QMC__SOBOL_PACK_ROWS - 1) * lanes, 0, lanes * sizeof *packed);
     }
 }
 

@@ -439,6 +439,52 @@ static void test_scrambles_randomize(void **state)
     qmc_seq_free(b);
 }
 
+/* Fills [start, start + count) in format fmt into a buffer followed by
+ * guard bytes: nothing may be written past the end, and every value must
+ * equal at() in that format. */
+static void assert_fill_matches_at(const qmc_seq *s, uint32_t dims, uint64_t start,
+                                   uint64_t count, qmc_format fmt)
+{
+    enum { GUARD = 64 };
+    const size_t value = qmc_format_bytes(fmt);
+    const size_t used = (size_t)count * dims * value;
+    uint8_t *buf = malloc(used + GUARD);
+    memset(buf, 0x5a, used + GUARD);
+    assert_int_equal(qmc_seq_fill(s, start, count, fmt, buf), 0);
+    const char *scr = qmc_scramble_name(qmc_seq_get_spec(s)->scramble);
+    for (size_t g = 0; g < GUARD; g++)
+        if (buf[used + g] != 0x5a)
+            fail_msg("%s %s d=%u start=%llu count=%llu: byte %zu past the end written", scr,
+                     qmc_format_name(fmt), dims, (unsigned long long)start,
+                     (unsigned long long)count, g);
+    for (uint64_t p = 0; p < count; p++)
+        for (uint32_t j = 0; j < dims; j++) {
+            double x = at(s, start + p, j);
+            size_t i = (size_t)p * dims + j;
+            int same;
+            if (fmt == QMC_FORMAT_F64)
+                same = memcmp(&x, buf + 8 * i, 8) == 0;
+            else if (fmt == QMC_FORMAT_U32) {
+                uint32_t u;
+                memcpy(&u, buf + 4 * i, 4);
+                same = u == (uint32_t)(x * 0x1p32);
+            } else {
+                float v;
+                memcpy(&v, buf + 4 * i, 4);
+                same = v == (float)((uint32_t)(x * 0x1p32) >> 8) * 0x1p-24f;
+            }
+            if (!same)
+                fail_msg("%s %s d=%u start=%llu: point %llu dim %u differs from at()", scr,
+                         qmc_format_name(fmt), dims, (unsigned long long)start,
+                         (unsigned long long)(start + p), j);
+        }
+    free(buf);
+}
+
+static const qmc_scramble sobol_scrambles[] = {QMC_SCRAMBLE_NONE, QMC_SCRAMBLE_SHIFT,
+                                               QMC_SCRAMBLE_OWEN};
+static const qmc_format all_formats[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
+
 /* The last group of 1..7 dimensions is computed as a whole vector whose
  * spare lanes are stored over the next points' first dimensions
  * (sobol_fill.h): every value must still equal at(), in every format, and
@@ -447,53 +493,38 @@ static void test_scrambles_randomize(void **state)
 static void test_sobol_fill_tail_group(void **state)
 {
     (void)state;
-    const qmc_scramble scr[] = {QMC_SCRAMBLE_NONE, QMC_SCRAMBLE_SHIFT, QMC_SCRAMBLE_OWEN};
-    const qmc_format fmts[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
     const uint32_t dims[] = {1, 2, 3, 7, 9, 15, 30, 263};
     const uint64_t counts[] = {1, 2, 3, 5, 64, 65, 200};
-    enum { GUARD = 64 };
     for (size_t a = 0; a < 3; a++)
         for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
-            qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], scr[a], 11, 0);
-            for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
-                const uint64_t start = 1 + 977 * c, count = counts[c];
-                for (size_t f = 0; f < 3; f++) {
-                    const size_t value = qmc_format_bytes(fmts[f]);
-                    const size_t used = (size_t)count * dims[b] * value;
-                    uint8_t *buf = malloc(used + GUARD);
-                    memset(buf, 0x5a, used + GUARD);
-                    assert_int_equal(qmc_seq_fill(s, start, count, fmts[f], buf), 0);
-                    for (size_t g = 0; g < GUARD; g++)
-                        if (buf[used + g] != 0x5a)
-                            fail_msg("%s %s d=%u count=%llu: byte %zu past the end written",
-                                     qmc_scramble_name(scr[a]), qmc_format_name(fmts[f]),
-                                     dims[b], (unsigned long long)count, g);
-                    for (uint64_t p = 0; p < count; p++)
-                        for (uint32_t j = 0; j < dims[b]; j++) {
-                            double x = at(s, start + p, j);
-                            size_t i = (size_t)p * dims[b] + j;
-                            int same;
-                            if (fmts[f] == QMC_FORMAT_F64)
-                                same = memcmp(&x, buf + 8 * i, 8) == 0;
-                            else if (fmts[f] == QMC_FORMAT_U32) {
-                                uint32_t u;
-                                memcpy(&u, buf + 4 * i, 4);
-                                same = u == (uint32_t)(x * 0x1p32);
-                            } else {
-                                float v;
-                                memcpy(&v, buf + 4 * i, 4);
-                                same = v == (float)((uint32_t)(x * 0x1p32) >> 8) * 0x1p-24f;
-                            }
-                            if (!same)
-                                fail_msg("%s %s d=%u count=%llu: point %llu dim %u differs "
-                                         "from at()", qmc_scramble_name(scr[a]),
-                                         qmc_format_name(fmts[f]), dims[b],
-                                         (unsigned long long)count,
-                                         (unsigned long long)p, j);
-                        }
-                    free(buf);
-                }
-            }
+            qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], sobol_scrambles[a], 11, 0);
+            for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++)
+                for (size_t f = 0; f < 3; f++)
+                    assert_fill_matches_at(s, dims[b], 1 + 977 * c, counts[c], all_formats[f]);
+            qmc_seq_free(s);
+        }
+}
+
+/* Below 32 dimensions (not a multiple of 8) the whole blocks of 8 points
+ * go packed, d vectors per block, each lane stepping by the row ctz(block)
+ * of its own dimension (sobol_fill.h).  Every row must be right: blocks
+ * from 0, and around 2^31 where the block number crosses 2^28 (row 28, the
+ * last); with unaligned heads and tails, in every format and scramble, at
+ * widths 1..31 with and without a packed part (fewer than d blocks). */
+static void test_sobol_packed_fill_matches_at(void **state)
+{
+    (void)state;
+    const uint32_t dims[] = {1, 2, 3, 4, 5, 7, 9, 13, 15, 17, 20, 30, 31};
+    const uint64_t high = (1ull << 31) - 8 * 300;
+    const uint64_t ranges[][2] = {{0, 2048}, {5, 1500}, {high, 8 * 600}, {high + 3, 8 * 40 + 5},
+                                  {QMC_SEQ_MAX_INDEX - 8 * 64, 8 * 64}};
+    for (size_t a = 0; a < 3; a++)
+        for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
+            qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], sobol_scrambles[a], 23, 0);
+            for (size_t r = 0; r < sizeof ranges / sizeof ranges[0]; r++)
+                for (size_t f = 0; f < 3; f++)
+                    assert_fill_matches_at(s, dims[b], ranges[r][0], ranges[r][1],
+                                           all_formats[f]);
             qmc_seq_free(s);
         }
 }
@@ -511,7 +542,8 @@ static void test_instruction_sets_agree(void **state)
     for (size_t a = 0; a < 3; a++)
         for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
             qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], scr[a], 5, 0);
-            const uint64_t start = 1000003, count = 133;
+            /* count: d = 21 too has whole blocks packed (at least 21) */
+            const uint64_t start = 1000003, count = 405;
             size_t bytes = (size_t)count * dims[b] * 8;
             uint8_t *want = malloc(bytes), *got = malloc(bytes);
             for (size_t f = 0; f < 3; f++) {
@@ -636,6 +668,7 @@ int main(void)
         cmocka_unit_test(test_scrambles_randomize),
         cmocka_unit_test(test_instruction_sets_agree),
         cmocka_unit_test(test_sobol_fill_tail_group),
+        cmocka_unit_test(test_sobol_packed_fill_matches_at),
         cmocka_unit_test(test_limits_and_errors),
         cmocka_unit_test(test_names_round_trip),
     };
