@@ -18,6 +18,7 @@
 #include "bits.h"
 #include "msg.h"
 #include "lane_sum.h"
+#include "hot_clones.h"
 #include "neumaier.h"
 #include "sampling_impl.h"
 
@@ -450,7 +451,9 @@ static int lanes_finite(qmc__f64x4 v)
  * then the one chain of each Neumaier sum were the block loop's critical
  * path.)  Unless checked is set, a chunk with a value that is not finite
  * - its |f| or g lanes stop being finite - is left out and 0 returned:
- * the caller drops those points and adds the rest with checked set. */
+ * the caller drops those points and adds the rest with checked set.
+ * Built for AVX2 too (hot_clones.h): 12% of auto's time at d = 2. */
+QMC__AVX2_CLONE
 static int add_chunk(qmc_sampling_sums *out, block_acc *acc, const double *fv,
                      const double *gv, size_t m, int checked)
 {
