@@ -98,11 +98,14 @@ static void sobol_init(qmc_seq *seq)
     }
     if (has_packed(spec)) {
         uint32_t *packed = t + u32_words(d) + w64_words(spec);
-        const size_t lanes = 8 * d;
-        for (size_t r = 0; r + 1 < QMC__SOBOL_PACK_ROWS; r++)
-            for (size_t q = 0; q < lanes; q++)
-                packed[r * lanes + q] = wt[(3 + r) * d + q % d] ^ wt[2 * d + q % d];
-        memset(packed + (QMC__SOBOL_PACK_ROWS - 1) * lanes, 0, lanes * sizeof *packed);
+        const size_t width = packed_row_words(d);
+        for (size_t r = 0; r < QMC__SOBOL_PACK_ROWS; r++) {
+            uint32_t *row = packed + r * width;
+            for (size_t i = 0; i < width; i++)
+                row[i] = r + 1 == QMC__SOBOL_PACK_ROWS
+                             ? 0
+                             : wt[(3 + r) * d + i % d] ^ wt[2 * d + i % d];
+        }
     }
 }
 

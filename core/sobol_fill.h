@@ -309,7 +309,7 @@ fill_f64_blocks(const qmc_seq *seq, uint64_t start, uint64_t count,
 }
 /*
  * Points [start, start + count) with start and count multiples of 8, for
- * dims < QMC__SOBOL_PACK_DIMS (table P, sobol_impl.h): the 8*d coordinates
+ * has_packed() dimensions (table P, sobol_impl.h): the 8*d coordinates
  * of 8 consecutive points are d full vectors, each stepping by its row of
  * P, so no lane idles.  Groups of blocks keep their output within 16 KiB
  * (L1) while each vector walks them.  Same states, finish8 and store8 as
@@ -348,12 +348,12 @@ fill_packed(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
             const uint64_t b = first + b0 + m;
             const uint32_t r = b == first ? QMC__SOBOL_PACK_ROWS - 1
                                           : (uint32_t)__builtin_ctzll(b);
-            row[m] = s.packed + (size_t)r * lanes;
+            row[m] = s.packed + (size_t)r * packed_row_words(d);
         }
-        for (uint32_t q = 0; q < lanes; q += 8) {
+        for (uint32_t q = 0, j = 0; q < lanes; q += 8, j = (j + 8) % d) {
             u32x8 x = load8(st + q), sd = load8(seed + q);
             for (uint32_t m = 0; m < n; m++) {
-                x ^= load8(row[m] + q);
+                x ^= load8(row[m] + j); /* lanes q..q+7: dimensions j.. */
                 store8(out, (size_t)(b0 + m) * lanes + q, finish8(x, sd, scr), fmt);
             }
             memcpy(st + q, &x, sizeof x);

@@ -27,14 +27,16 @@ enum { BITS = 32 };
  *                  fill keeps its state pre-shifted into the mantissa
  *                  position, so a coordinate costs one XOR, one OR and one
  *                  subtraction (see fill_f64_blocks).
- *   P[30][8*dims]  u32: only when has_packed() (below), the steps of
- *                  the packed fill (fill_packed in sobol_fill.h), which
- *                  walks 8 points at a time: the 8*dims coordinates of
- *                  points 8M..8M+7, in output order, are dims vectors of 8
- *                  lanes.  From 8(M-1)+k to 8M+k the index bits 3..3+r flip,
- *                  r = ctz(M), whatever k is, so every lane takes the same
- *                  step W_(3+r) ^ W_2 of its own dimension: row r holds it
- *                  for lane q (dimension q % dims); row 29 is all zero. */
+ *   P[30][dims+8]  u32: only when has_packed() (below), the steps of the
+ *                  packed fill (fill_packed in sobol_fill.h), which walks
+ *                  8 points at a time: the 8*dims coordinates of points
+ *                  8M..8M+7, in output order, are dims vectors of 8 lanes.
+ *                  From 8(M-1)+k to 8M+k the index bits 3..3+r flip, r =
+ *                  ctz(M), whatever k is, so every lane takes the same step
+ *                  W_(3+r) ^ W_2 of its own dimension q % dims.  Row r holds
+ *                  the step of dimensions 0..dims-1 and then again of
+ *                  0..7, so the 8 lanes from q on are the 8 words from
+ *                  q % dims on; row 29 is all zero. */
 typedef struct sobol_view {
     const uint32_t *v;
     const uint32_t *w;
@@ -53,14 +55,19 @@ static inline int has_w64(const qmc_seq_spec *spec)
  * 6 of 8; d = 30: 2 of 32); packing 8 points into d vectors fills them
  * all.  Measured (owen, f64, fills of 4096): 4.0 -> 0.9 ns a point at
  * d = 2, 4.1 -> 2.1 at d = 5, 10.4 -> 8.1 at d = 20, 13.9 -> 12.5 at
- * d = 30.  The limit keeps the table (960 bytes a dimension) within L1.
- * Rows: ctz(M) for M < 2^29 (indices below 2^32), and the zero row.
+ * d = 30.  Rows: ctz(M) for M < 2^29 (indices below 2^32), and the zero
+ * row.
  */
 enum { QMC__SOBOL_PACK_DIMS = 32, QMC__SOBOL_PACK_ROWS = 30 };
 
 static inline int has_packed(const qmc_seq_spec *spec)
 {
     return spec->dims < QMC__SOBOL_PACK_DIMS && spec->dims % 8 != 0;
+}
+
+static inline size_t packed_row_words(size_t d)
+{
+    return d + 8;
 }
 
 /* Zero words after the seeds, so that the last group of dimensions can be
@@ -82,7 +89,7 @@ static inline size_t w64_words(const qmc_seq_spec *spec)
 
 static inline size_t packed_words(const qmc_seq_spec *spec)
 {
-    return has_packed(spec) ? (size_t)QMC__SOBOL_PACK_ROWS * 8 * spec->dims : 0;
+    return has_packed(spec) ? QMC__SOBOL_PACK_ROWS * packed_row_words(spec->dims) : 0;
 }
 
 static inline sobol_view view(const qmc_seq *seq)
