@@ -157,7 +157,8 @@ static void cache_trim(qmcd_seqcache *cache)
 /*
  * What an instance's precomputed tables take, as seq_sobol.c and
  * seq_halton.c lay them out: Sobol about 528 bytes a dimension (direction
- * numbers, prefix XORs in 32 and 64 bits, seeds), Halton 48 a dimension
+ * numbers, prefix XORs in 32 and 64 bits, seeds) plus, below 32
+ * dimensions, under 5 KiB of packed-fill steps, Halton 48 a dimension
  * plus its small-base tables; the other kinds almost nothing.  An
  * estimate (the library does not say), but one that scales right: it is
  * what lets max-seq-memory bound the instances open streams pin.
@@ -166,7 +167,7 @@ static uint64_t seq_bytes(const qmc_seq_spec *spec)
 {
     switch (spec->kind) {
     case QMC_SEQ_SOBOL:
-        return 528ull * spec->dims + 4096;
+        return 528ull * spec->dims + 8192;
     case QMC_SEQ_HALTON:
     case QMC_SEQ_HAMMERSLEY:
         return 48ull * spec->dims + 16384;
