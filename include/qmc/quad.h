@@ -205,8 +205,13 @@ QMC_MUST_CHECK int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule,
  * The workspace bounds the number of regions: when it is full, cubature
  * stops with QMC_FLAG_MEMORY_BOUND (+ NOT_CONVERGED) and the estimate over
  * the regions it has.  Another split that would pass max_evals stops with
- * QMC_FLAG_BUDGET (+ NOT_CONVERGED).  res->n is the number of regions,
- * res->error the sum of their errors.
+ * QMC_FLAG_BUDGET (+ NOT_CONVERGED).  res->n is the number of regions.
+ * res->error is the sum of their errors (for integrands declared analytic,
+ * each sharpened to the degree-7 rule's scale and the sum raised when the
+ * run's own splits show it short), or, for analytic integrands at d >= 3,
+ * a Richardson bound from how the whole estimate converged, when that is
+ * smaller: the regions' errors cancel, their sum does not (see
+ * core/cubature.c).  The loop stops on the sum.
  */
 typedef struct qmc_cubature_opts {
     double tol_abs;     /* >= 0 */
