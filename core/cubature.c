@@ -416,7 +416,8 @@ enum { RICHARDSON_SAFETY = 4, RICHARDSON_MIN_REGIONS = 16 };
 static double richardson_bar(const cub_state *s, double est)
 {
     const uint32_t n = s->count;
-    if (s->f->smoothness != QMC_SMOOTH_ANALYTIC || s->d < 3 || n < RICHARDSON_MIN_REGIONS)
+    if (s->f->smoothness != QMC_SMOOTH_ANALYTIC || s->d < 3 || n < RICHARDSON_MIN_REGIONS ||
+        s->nonfinite || !isfinite(est))
         return HUGE_VAL;
     const double p = 8.0 / s->d, shrink = 1.0 - pow(2.0, -p);
     const int a = 31 - __builtin_clz(n / 2); /* 2^a <= n/2 < 2^(a+1), a >= 3 */
@@ -561,13 +562,19 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
     }
 
     totals(&s, &est, &err);
-    err = fmin(err * shortfall_factor(&s), richardson_bar(&s, est));
+    err *= shortfall_factor(&s);
     if (s.nonfinite)
         flags |= QMC_FLAG_NONFINITE | QMC_FLAG_ERROR_UNRELIABLE;
+    /* Converged or not by the bar the loop stops on; the Richardson bar
+     * only reports a sharper one (a run that ran out of budget stays
+     * flagged so, whatever it reports). */
     if (s.nonfinite || !(err <= tolerance(opts, est)))
         flags |= QMC_FLAG_NOT_CONVERGED;
     else
         flags &= ~(uint32_t)(QMC_FLAG_MEMORY_BOUND | QMC_FLAG_BUDGET);
+    const double sharper = richardson_bar(&s, est);
+    if (sharper < err) /* false for a NaN err: it stays NaN */
+        err = sharper;
     res->estimate = est;
     res->error = err;
     res->ci_low = est - err;

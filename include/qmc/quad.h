@@ -211,7 +211,8 @@ QMC_MUST_CHECK int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule,
  * run's own splits show it short), or, for analytic integrands at d >= 3,
  * a Richardson bound from how the whole estimate converged, when that is
  * smaller: the regions' errors cancel, their sum does not (see
- * core/cubature.c).  The loop stops on the sum.
+ * core/cubature.c).  The loop stops on the sum, and the flags say whether
+ * the sum met the tolerance.
  */
 typedef struct qmc_cubature_opts {
     double tol_abs;     /* >= 0 */

@@ -311,6 +311,55 @@ static void test_oscillatory_bar_follows_cancellation(void **state)
                  median, under, k);
 }
 
+/* The Richardson bar reports a sharper error, but convergence is judged
+ * by the bar the loop stops on: a run that ran out of budget stays
+ * flagged BUDGET + NOT_CONVERGED even when the sharper bar is under the
+ * tolerance; and an estimate that went NaN keeps a NaN error. */
+static long late_nan_calls;
+
+static void late_nan_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
+                          double *out)
+{
+    const long limit = *(const long *)ctx;
+    for (size_t i = 0; i < n; i++) {
+        double s = 0.0;
+        for (uint32_t j = 0; j < dims; j++)
+            s += x[i * dims + j];
+        out[i] = ++late_nan_calls > limit ? NAN : cos(3.0 * s);
+    }
+}
+
+static void test_richardson_bar_keeps_flags_and_nan(void **state)
+{
+    (void)state;
+    double a[5], u[5];
+    assert_int_equal(qmc_genz_draw(QMC_GENZ_OSCILLATORY, 5, QMC_DIFFICULTY_FIXED, 1, a, u), 0);
+    qmc_testfn *fn = NULL;
+    assert_int_equal(qmc_testfn_new("genz-oscillatory", 5, a, 5, u, 5, &fn, NULL, 0), 0);
+    qmc_cubature_opts o = {.tol_rel = 1e-8, .max_evals = 100000};
+    size_t bytes = qmc_cubature_workspace_bytes(5, 100000);
+    void *ws = malloc(bytes);
+    qmc_result res;
+    assert_int_equal(qmc_cubature(qmc_testfn_integrand(fn), &o, ws, bytes, &res, NULL, 0), 0);
+    assert_int_equal(res.flags & (QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED),
+                     QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED);
+    qmc_testfn_free(fn);
+    free(ws);
+
+    const long limit = 150000; /* past 16 regions: the bar applies */
+    late_nan_calls = 0;
+    qmc_integrand g = {.eval = late_nan_eval, .ctx = &limit, .dims = 3,
+                       .smoothness = QMC_SMOOTH_ANALYTIC};
+    qmc_cubature_opts o3 = {.tol_rel = 1e-14, .max_evals = 10000000};
+    bytes = qmc_cubature_workspace_bytes(3, 1000000);
+    ws = malloc(bytes);
+    assert_int_equal(qmc_cubature(&g, &o3, ws, bytes, &res, NULL, 0), 0);
+    free(ws);
+    assert_true(res.n >= 16);
+    assert_true(res.flags & QMC_FLAG_NONFINITE);
+    assert_true(isnan(res.estimate) && isnan(res.error));
+}
+
 static void test_memory_bound(void **state)
 {
     (void)state;
@@ -480,6 +529,7 @@ int main(void)
         cmocka_unit_test(test_kink_keeps_bare_bar),
         cmocka_unit_test(test_corner_peak_bar_holds),
         cmocka_unit_test(test_oscillatory_bar_follows_cancellation),
+        cmocka_unit_test(test_richardson_bar_keeps_flags_and_nan),
         cmocka_unit_test(test_memory_bound),
         cmocka_unit_test(test_budget),
         cmocka_unit_test(test_high_dimensions),
