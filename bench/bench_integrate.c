@@ -13,10 +13,11 @@
  * Part 2: every method at budgets of 1e4 .. 1e7 evaluations on the six
  * Genz families at d = 2, 5, 10, 20, 30, each on DRAWS integrands drawn at
  * fixed difficulty (qmc_genz_draw FIXED, seeds 1 .. DRAWS; the randomized
- * methods, ours and GSL's, are seeded with the same number).  One draw is
- * one lottery ticket: a single u can sit where a method's points happen to
- * be lucky (an unscrambled net whose box corner falls on a dyadic grid),
- * so comparisons are made over the draws, as Genz's own test package does;
+ * methods, ours and GSL's, are seeded with the same number, and auto runs
+ * BENCH_SCRAMBLES seeds a draw: integrate_methods.h).  One draw is one
+ * lottery ticket: a single u can sit where a method's points happen to be
+ * lucky (an unscrambled net whose box corner falls on a dyadic grid), so
+ * comparisons are made over the draws, as Genz's own test package does;
  * see integrate_report.c.  See integrate_methods.c for how each method is
  * held to its budget.  Each run,
  * ours included, happens in a forked child under RLIMIT_AS = 2 GiB and an
@@ -143,7 +144,7 @@ static void write_run(FILE *csv, const bench_rec *r)
             r->out.method_used >= 0 ? qmc_method_name((qmc_method)r->out.method_used) : "",
             r->out.timing_runs);
     csv_text(csv, r->out.note);
-    fputc('\n', csv);
+    fprintf(csv, ",%u\n", r->job.scramble);
     fflush(csv);
 }
 
@@ -240,7 +241,10 @@ int main(int argc, char **argv)
                fabs(ex[nearest]) / osc_absf[di][nearest]);
     }
 
-    const size_t total = COUNT(dims_list) * COUNT(families) * DRAWS * n_budgets * BENCH_M_COUNT;
+    size_t runs_per_draw = 0;
+    for (int m = 0; m < BENCH_M_COUNT; m++)
+        runs_per_draw += bench_method_scrambles((bench_method)m);
+    const size_t total = COUNT(dims_list) * COUNT(families) * DRAWS * n_budgets * runs_per_draw;
     bench_rec *recs = calloc(total, sizeof *recs);
     if (!recs)
         return 1;
@@ -248,7 +252,7 @@ int main(int argc, char **argv)
     if (runs_csv)
         fprintf(runs_csv, "method,family,dims,draw,budget,evals,seconds,abs_error,"
                           "error_estimate,error_rel_absf,exact,abs_integral,peak_rss_kb,outcome,"
-                          "method_used,timing_runs,note\n");
+                          "method_used,timing_runs,note,scramble\n");
     const bench_limits base = {.as_bytes = AS_CAP_BYTES};
     size_t n = 0;
     const double t_part2 = now();
@@ -261,22 +265,28 @@ int main(int argc, char **argv)
                     return 1;
                 for (size_t b = 0; b < n_budgets; b++) {
                     for (int m = 0; m < BENCH_M_COUNT; m++) {
-                        bench_rec *r = &recs[n];
-                        r->job = (bench_job){.method = (bench_method)m, .family = families[fi],
-                                             .dims = dims_list[di], .budget = budgets_full[b],
-                                             .draw_seed = draw};
-                        run_one(r, recs, n, &base, exact, absint);
-                        write_run(runs_csv, r);
-                        n++;
-                        fprintf(stderr,
-                                "[%4zu/%zu %5.0fs] d=%-2u %-19s #%llu %.0e %-9s %8.3fs err "
-                                "%-9.2e %s%s%s\n",
-                                n, total, now() - t_start, r->job.dims,
-                                qmc_genz_family_name(r->job.family), (unsigned long long)draw,
-                                (double)r->job.budget, bench_method_name(r->job.method),
-                                r->out.seconds, r->abs_err, bench_outcome_name(r->out.outcome),
-                                r->out.outcome == BENCH_OK ? "" : ": ",
-                                r->out.outcome == BENCH_OK ? "" : r->out.note);
+                        for (uint32_t s = 0; s < bench_method_scrambles((bench_method)m); s++) {
+                            bench_rec *r = &recs[n];
+                            r->job = (bench_job){.method = (bench_method)m,
+                                                 .family = families[fi],
+                                                 .dims = dims_list[di],
+                                                 .budget = budgets_full[b],
+                                                 .draw_seed = draw,
+                                                 .scramble = s};
+                            run_one(r, recs, n, &base, exact, absint);
+                            write_run(runs_csv, r);
+                            n++;
+                            fprintf(stderr,
+                                    "[%4zu/%zu %5.0fs] d=%-2u %-19s #%llu.%u %.0e %-9s %8.3fs "
+                                    "err %-9.2e %s%s%s\n",
+                                    n, total, now() - t_start, r->job.dims,
+                                    qmc_genz_family_name(r->job.family),
+                                    (unsigned long long)draw, s, (double)r->job.budget,
+                                    bench_method_name(r->job.method), r->out.seconds,
+                                    r->abs_err, bench_outcome_name(r->out.outcome),
+                                    r->out.outcome == BENCH_OK ? "" : ": ",
+                                    r->out.outcome == BENCH_OK ? "" : r->out.note);
+                        }
                     }
                 }
             }

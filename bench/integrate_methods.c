@@ -17,9 +17,11 @@
  *               check the budget only after a whole rule or refinement,
  *               so they may overshoot it: evals records what they spent.
  *   auto        qmc_integrate, method auto, tol_rel 1e-14 (unreachable,
- *               so it spends the budget), max_evals = B, seed = draw seed.
+ *               so it spends the budget), max_evals = B, seed = the draw
+ *               seed plus the scramble number times 2^32.
  *   rqmc        qmc_integrate, method rqmc, owen-scrambled Sobol, 16
- *               replicates of the largest power of two n with 16 n <= B.
+ *               replicates of the largest power of two n with 16 n <= B,
+ *               seeded as auto is (one scramble a draw).
  *   cubature    qmc_integrate, method cubature (Genz-Malik), tol_rel
  *               1e-14, max_evals = B, the default 64 MiB of regions.
  * Peers' evaluations are counted in the wrapper that calls our integrand;
@@ -62,6 +64,11 @@ const char *bench_method_name(bench_method m)
     default:
         return "?";
     }
+}
+
+uint32_t bench_method_scrambles(bench_method m)
+{
+    return m == BENCH_M_AUTO ? BENCH_SCRAMBLES : 1;
 }
 
 int bench_method_is_peer(bench_method m)
@@ -281,7 +288,9 @@ static void run_ours(const bench_job *job, const qmc_integrand *f, bench_out *ou
     qmc_integrate_spec spec;
     qmc_integrate_spec_init(&spec);
     spec.max_evals = job->budget;
-    spec.sampling.seed = job->draw_seed;
+    /* Scramble 0 keeps the draw's seed; the others never meet a draw's. */
+    const uint64_t seed = job->draw_seed + ((uint64_t)job->scramble << 32);
+    spec.sampling.seed = seed;
     switch (job->method) {
     case BENCH_M_AUTO:
         spec.method = QMC_METHOD_AUTO;
@@ -290,7 +299,7 @@ static void run_ours(const bench_job *job, const qmc_integrand *f, bench_out *ou
     case BENCH_M_RQMC: {
         spec.method = QMC_METHOD_RQMC;
         qmc_sampling_spec_init(&spec.sampling, QMC_SAMPLER_RQMC);
-        spec.sampling.seed = job->draw_seed;
+        spec.sampling.seed = seed;
         uint64_t n = 1;
         while (2 * n * spec.sampling.reps <= job->budget)
             n *= 2;

@@ -33,6 +33,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -61,24 +62,31 @@ static double quantile(const double *v, size_t n, double q)
     return v[i] + (pos - (double)i) * (v[i + 1] - v[i]);
 }
 
+/* Which runs a cell takes: all of them, or each draw's first scramble
+ * only (one randomization per draw, as the benchmark ran before ours got
+ * BENCH_SCRAMBLES; peers have only that one). */
+typedef enum { RUNS_ALL, RUNS_FIRST_SCRAMBLE } run_scope;
+
 /* What the draws of one (method, family, d, budget) add up to. */
 typedef struct bench_cell {
-    int runs, ok, refused;   /* draws found; succeeded; refused (budget) */
+    int runs, ok, refused;   /* runs found; succeeded; refused (budget) */
     double err;              /* geometric mean of floored |error| / int |f| */
     double seconds;          /* median wall time */
     int method_used;         /* ours: the qmc_method of every draw, -2 if mixed */
     const bench_rec *first;  /* the first draw (for notes), or NULL */
 } bench_cell;
 
+enum { CELL_TIMES_MAX = 256 }; /* runs whose time the median sees */
+
 static bench_cell cell_of(const bench_rec *recs, size_t n, bench_method m, qmc_genz_family fam,
-                          uint32_t d, uint64_t budget)
+                          uint32_t d, uint64_t budget, run_scope scope)
 {
     bench_cell c = {0, 0, 0, NAN, NAN, -1, NULL};
-    double secs[64], log_sum = 0;
+    double secs[CELL_TIMES_MAX], log_sum = 0;
     for (size_t i = 0; i < n; i++) {
         const bench_rec *r = &recs[i];
         if (r->job.method != m || r->job.family != fam || r->job.dims != d ||
-            r->job.budget != budget)
+            r->job.budget != budget || (scope == RUNS_FIRST_SCRAMBLE && r->job.scramble != 0))
             continue;
         if (!c.first) {
             c.first = r;
@@ -91,12 +99,12 @@ static bench_cell cell_of(const bench_rec *recs, size_t n, bench_method m, qmc_g
         if (r->out.method_used != c.method_used)
             c.method_used = -2;
         log_sum += log(bench_floored_error(r, BENCH_COMPARE_FLOOR) / fabs(r->absint));
-        if (c.ok < 64)
+        if (c.ok < CELL_TIMES_MAX)
             secs[c.ok] = r->out.seconds;
         c.ok++;
     }
     if (c.ok && c.ok == c.runs) {
-        int k = c.ok < 64 ? c.ok : 64;
+        int k = c.ok < CELL_TIMES_MAX ? c.ok : CELL_TIMES_MAX;
         qsort(secs, (size_t)k, sizeof *secs, cmp_double);
         c.err = exp(log_sum / c.ok);
         c.seconds = k % 2 ? secs[k / 2] : 0.5 * (secs[k / 2 - 1] + secs[k / 2]);
@@ -121,14 +129,14 @@ static const char *short_family(qmc_genz_family f)
  * `within` seconds, or, when within is NAN, the fastest (the more accurate
  * on a tie). */
 static bench_cell peer_cell(const bench_rec *recs, size_t n, const bench_grid *g,
-                            qmc_genz_family fam, uint32_t d, double within)
+                            qmc_genz_family fam, uint32_t d, double within, run_scope scope)
 {
     bench_cell best = {0, 0, 0, NAN, NAN, -1, NULL};
     for (int m = 0; m < BENCH_M_COUNT; m++) {
         if (!bench_method_is_peer((bench_method)m))
             continue;
         for (size_t pb = 0; pb < g->n_budgets; pb++) {
-            bench_cell p = cell_of(recs, n, (bench_method)m, fam, d, g->budgets[pb]);
+            bench_cell p = cell_of(recs, n, (bench_method)m, fam, d, g->budgets[pb], scope);
             if (!cell_complete(&p))
                 continue;
             int better = isnan(within) ? !best.first || p.seconds < best.seconds ||
@@ -141,40 +149,56 @@ static bench_cell peer_cell(const bench_rec *recs, size_t n, const bench_grid *g
     return best;
 }
 
-static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, FILE *csv,
-                          int *met, int *missed)
+/* Prints to out unless it is NULL. */
+__attribute__((format(printf, 2, 3))) static void say(FILE *out, const char *fmt, ...)
+{
+    if (!out)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    vfprintf(out, fmt, ap);
+    va_end(ap);
+}
+
+/* The table of auto against the best peer over the runs of scope, to out
+ * (NULL: none) and csv (NULL: none); met[p] is set for each (family, d)
+ * pair p = d index * families + family index, and the counts returned. */
+static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, run_scope scope,
+                          FILE *out, FILE *csv, int *pair_met, int *met, int *missed)
 {
     if (csv)
         fprintf(csv, "family,dims,budget,draws,auto_outcome,auto_method,auto_seconds,"
                      "auto_error_rel,best_peer,best_peer_budget,best_peer_seconds,"
                      "best_peer_error_rel,ratio,target\n");
-    printf("\nAuto vs the best peer at equal wall time, over %zu integrand draws per family "
-           "and d: ratio = auto's error / the smallest peer error among peer cells that took "
-           "no longer (step envelope); errors are geometric means over the draws of |error| / "
+    say(out, "\nAuto vs the best peer at equal wall time, over %zu integrand draws per family "
+           "and d, auto's under %d scrambles each: ratio = auto's error / the smallest peer "
+           "error among peer cells that took "
+           "no longer (step envelope); errors are geometric means over the runs of |error| / "
            "int |f|, times are medians.  '*': auto finished before every peer and was "
            "within the target of the fastest one (the ratio is to that peer); n/a: it "
-           "finished first but less accurately, so no peer ran in its time.\n", g->draws);
-    printf("Target: ratio <= 1 for every family and d, <= 1/3 at d >= 20.  Columns: auto's "
+           "finished first but less accurately, so no peer ran in its time.\n", g->draws,
+        (int)bench_method_scrambles(BENCH_M_AUTO));
+    say(out, "Target: ratio <= 1 for every family and d, <= 1/3 at d >= 20.  Columns: auto's "
            "budget.\n\n");
-    printf("%-15s %3s", "family", "d");
+    say(out, "%-15s %3s", "family", "d");
     for (size_t b = 0; b < g->n_budgets; b++)
-        printf(" %9.0e", (double)g->budgets[b]);
-    printf(" %9s %7s  %-24s %s\n", "worst", "target", "best peer @ top budget", "verdict");
+        say(out, " %9.0e", (double)g->budgets[b]);
+    say(out, " %9s %7s  %-24s %s\n", "worst", "target", "best peer @ top budget", "verdict");
     int n_met = 0, n_missed = 0, n_acc_met = 0;
     for (size_t di = 0; di < g->n_dims; di++) {
         uint32_t d = g->dims[di];
         double target = d >= 20 ? 1.0 / 3.0 : 1.0;
         for (size_t fi = 0; fi < g->n_families; fi++) {
             qmc_genz_family fam = g->families[fi];
-            printf("%-15s %3u", short_family(fam), d);
+            say(out, "%-15s %3u", short_family(fam), d);
             double worst = 0;
             int any = 0, refused = 0;
             char best_top[64] = "-";
             for (size_t b = 0; b < g->n_budgets; b++) {
-                bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, g->budgets[b]);
+                bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, g->budgets[b], scope);
                 if (!cell_complete(&a)) {
                     int skipped = a.first && a.first->out.outcome == BENCH_SKIPPED;
-                    printf(" %9s", !a.runs ? "-" : a.refused ? "refused" : "FAIL");
+                    say(out, " %9s", !a.runs ? "-" : a.refused ? "refused" : "FAIL");
                     if (a.runs && !skipped)
                         refused++;
                     if (csv && a.runs)
@@ -184,10 +208,10 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
                                 a.refused ? "refused" : "failed", target);
                     continue;
                 }
-                bench_cell best = peer_cell(recs, n, g, fam, d, a.seconds);
+                bench_cell best = peer_cell(recs, n, g, fam, d, a.seconds, scope);
                 int dominates = 0;
                 if (!best.first) { /* faster than every peer: the fastest one */
-                    bench_cell fastest = peer_cell(recs, n, g, fam, d, NAN);
+                    bench_cell fastest = peer_cell(recs, n, g, fam, d, NAN, scope);
                     if (fastest.first && a.err <= target * fastest.err) {
                         best = fastest;
                         dominates = 1;
@@ -197,12 +221,12 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
                 if (best.first) {
                     any = 1;
                     worst = fmax(worst, ratio);
-                    printf(dominates ? " %8.3g*" : " %9.3g", ratio);
+                    say(out, dominates ? " %8.3g*" : " %9.3g", ratio);
                     snprintf(best_top, sizeof best_top, "%s@%.0e %.2gs",
                              bench_method_name(best.first->job.method),
                              (double)best.first->job.budget, best.seconds);
                 } else {
-                    printf(" %9s", "n/a");
+                    say(out, " %9s", "n/a");
                     snprintf(best_top, sizeof best_top, "none within %.2gs", a.seconds);
                 }
                 if (csv) {
@@ -222,16 +246,17 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
             }
             int acc_ok = any && worst <= target;
             int ok = acc_ok && !refused;
-            printf(" %9.3g %7.3f  %-24s %s%s\n", any ? worst : NAN, target, best_top,
+            say(out, " %9.3g %7.3f  %-24s %s%s\n", any ? worst : NAN, target, best_top,
                    ok ? "met" : "MISSED",
                    refused ? (acc_ok ? " (refused a budget; ratios met)" : " (+ refused a budget)")
                            : "");
+            pair_met[di * g->n_families + fi] = ok;
             n_met += ok;
             n_missed += !ok;
             n_acc_met += acc_ok;
         }
     }
-    printf("Auto vs best peer: %d met, %d MISSED of %d (family, d) pairs; ignoring auto's "
+    say(out, "Auto vs best peer: %d met, %d MISSED of %d (family, d) pairs; ignoring auto's "
            "refusals, the ratios meet the target in %d\n", n_met, n_missed, n_met + n_missed,
            n_acc_met);
     *met += n_met;
@@ -451,14 +476,14 @@ static void top_budget_table(const bench_rec *recs, size_t n, const bench_grid *
         for (size_t fi = 0; fi < g->n_families; fi++) {
             qmc_genz_family fam = g->families[fi];
             uint32_t d = g->dims[di];
-            bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, top);
+            bench_cell a = cell_of(recs, n, BENCH_M_AUTO, fam, d, top, RUNS_ALL);
             printf("%-15s %3u %-9s", short_family(fam), d,
                    a.method_used >= 0 && cell_complete(&a)
                        ? qmc_method_name((qmc_method)a.method_used)
                        : a.method_used == -2 ? "mixed" : "-");
             static const bench_method ours[] = {BENCH_M_AUTO, BENCH_M_RQMC, BENCH_M_CUBATURE};
             for (size_t k = 0; k < 3; k++) {
-                bench_cell c = cell_of(recs, n, ours[k], fam, d, top);
+                bench_cell c = cell_of(recs, n, ours[k], fam, d, top, RUNS_ALL);
                 if (cell_complete(&c))
                     printf("  %9.2e (%5.3fs)", c.err, c.seconds);
                 else
@@ -468,7 +493,7 @@ static void top_budget_table(const bench_rec *recs, size_t n, const bench_grid *
             for (int m = 0; m < BENCH_M_COUNT; m++) {
                 if (!bench_method_is_peer((bench_method)m))
                     continue;
-                bench_cell c = cell_of(recs, n, (bench_method)m, fam, d, top);
+                bench_cell c = cell_of(recs, n, (bench_method)m, fam, d, top, RUNS_ALL);
                 if (cell_complete(&c) && (!best.first || c.err < best.err))
                     best = c;
             }
@@ -485,7 +510,26 @@ void bench_report(const bench_rec *recs, size_t n, const bench_grid *g, FILE *pa
                   FILE *honesty_csv, int *met, int *missed)
 {
     outcomes_table(recs, n, g, met, missed);
-    auto_vs_peers(recs, n, g, pair_csv, met, missed);
+    const size_t pairs = g->n_dims * g->n_families;
+    int *all_met = calloc(2 * pairs, sizeof *all_met);
+    if (!all_met) {
+        fprintf(stderr, "bench_integrate: out of memory\n");
+        exit(1);
+    }
+    int *first_met = all_met + pairs, m1 = 0, x1 = 0;
+    auto_vs_peers(recs, n, g, RUNS_ALL, stdout, pair_csv, all_met, met, missed);
+    auto_vs_peers(recs, n, g, RUNS_FIRST_SCRAMBLE, NULL, NULL, first_met, &m1, &x1);
+    printf("With each draw's first scramble only (one randomization per draw): %d met, %d "
+           "MISSED", m1, x1);
+    for (size_t di = 0; di < g->n_dims; di++)
+        for (size_t fi = 0; fi < g->n_families; fi++) {
+            size_t p = di * g->n_families + fi;
+            if (all_met[p] != first_met[p])
+                printf("; %s at d = %u: %s", short_family(g->families[fi]), g->dims[di],
+                       first_met[p] ? "met" : "MISSED");
+        }
+    printf("\n");
+    free(all_met);
     top_budget_table(recs, n, g);
     honesty_table(recs, n, g, honesty_csv, met, missed);
 }
