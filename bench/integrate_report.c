@@ -2,12 +2,14 @@
  * integrate_report.c - part 3 of bench_integrate (see integrate_report.h).
  *
  * Cells.  Each (method, family, d, budget) ran on the same draws of the
- * integrand; a cell sums them up as the geometric mean over the draws of
- * the error relative to int |f| (floored at BENCH_COMPARE_FLOOR: rounding
- * compares equal), and the median of the wall times.  The geometric mean
- * is the mean number of correct digits, Genz's own yardstick; unlike a
- * single draw it does not crown a method for one lucky u.  A cell counts
- * only if every draw succeeded.
+ * integrand, auto under BENCH_SCRAMBLES seeds a draw (integrate_methods.h);
+ * a cell sums its runs up as the geometric mean of the error relative to
+ * int |f| (floored at BENCH_COMPARE_FLOOR: rounding compares equal), and
+ * the median of the wall times.  The geometric mean is the mean number of
+ * correct digits, Genz's own yardstick; unlike a single draw it does not
+ * crown a method for one lucky u.  A cell counts only if every run
+ * succeeded.  The verdicts are also given over each draw's first scramble
+ * alone (run_scope).
  *
  * Equal wall time.  For each auto cell (time t, error e) of a family and
  * dimension, the best peer is the smallest error among that family's and
@@ -167,19 +169,19 @@ static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, 
                           FILE *out, FILE *csv, int *pair_met, int *met, int *missed)
 {
     if (csv)
-        fprintf(csv, "family,dims,budget,draws,auto_outcome,auto_method,auto_seconds,"
+        fprintf(csv, "family,dims,budget,runs,auto_outcome,auto_method,auto_seconds,"
                      "auto_error_rel,best_peer,best_peer_budget,best_peer_seconds,"
                      "best_peer_error_rel,ratio,target\n");
-    say(out, "\nAuto vs the best peer at equal wall time, over %zu integrand draws per family "
-           "and d, auto's under %d scrambles each: ratio = auto's error / the smallest peer "
-           "error among peer cells that took "
-           "no longer (step envelope); errors are geometric means over the runs of |error| / "
-           "int |f|, times are medians.  '*': auto finished before every peer and was "
-           "within the target of the fastest one (the ratio is to that peer); n/a: it "
-           "finished first but less accurately, so no peer ran in its time.\n", g->draws,
-        (int)bench_method_scrambles(BENCH_M_AUTO));
+    say(out,
+        "\nAuto vs the best peer at equal wall time, over %zu integrand draws per family and "
+        "d, auto's under %u scrambles each: ratio = auto's error / the smallest peer error "
+        "among peer cells that took no longer (step envelope); errors are geometric means "
+        "over the runs of |error| / int |f|, times are medians.  '*': auto finished before "
+        "every peer and was within the target of the fastest one (the ratio is to that "
+        "peer); n/a: it finished first but less accurately, so no peer ran in its time.\n",
+        g->draws, scope == RUNS_ALL ? bench_method_scrambles(BENCH_M_AUTO) : 1u);
     say(out, "Target: ratio <= 1 for every family and d, <= 1/3 at d >= 20.  Columns: auto's "
-           "budget.\n\n");
+             "budget.\n\n");
     say(out, "%-15s %3s", "family", "d");
     for (size_t b = 0; b < g->n_budgets; b++)
         say(out, " %9.0e", (double)g->budgets[b]);
