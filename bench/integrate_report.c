@@ -163,7 +163,7 @@ __attribute__((format(printf, 2, 3))) static void say(FILE *out, const char *fmt
 }
 
 /* The table of auto against the best peer over the runs of scope, to out
- * (NULL: none) and csv (NULL: none); met[p] is set for each (family, d)
+ * (NULL: none) and csv (NULL: none); pair_met[p] is set for each (family, d)
  * pair p = d index * families + family index, and the counts returned. */
 static void auto_vs_peers(const bench_rec *recs, size_t n, const bench_grid *g, run_scope scope,
                           FILE *out, FILE *csv, int *pair_met, int *met, int *missed)
