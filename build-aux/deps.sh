@@ -4,8 +4,21 @@
 # Runs apt-get as root, or through sudo; does nothing when all are present.
 set -eu
 
-pkgs_build="gcc make pkg-config libsystemd-dev"
-pkgs_test="libcmocka-dev clang libclang-rt-14-dev python3-scipy"
+# Each group names every package it needs itself, Recommends included:
+# the install below passes --no-install-recommends, and nothing may work only
+# because another group (or a Recommends) happened to bring it in.
+#   build: the compiler and libc headers (gcc only Recommends libc6-dev),
+#          libsystemd (sd_notify), libmodbus (the RTU serial line), libsodium
+#          (HMAC-SHA256 and constant-time compares for authentication).
+#   test:  cmocka, clang + its runtime (sanitizers, libFuzzer), scipy (the
+#          oracles), the real peers the end-to-end tests drive (mbpoll,
+#          pymodbus and serial_asyncio, which pymodbus 3.0 imports at start,
+#          socat, haproxy), valgrind, systemd's tools (socket activation,
+#          systemd-analyze), man-db (man -l) and gnuplot (stability charts).
+pkgs_build="gcc libc6-dev make pkg-config libsystemd-dev libmodbus-dev libsodium-dev"
+pkgs_test="libcmocka-dev clang libclang-rt-14-dev python3 python3-scipy \
+python3-pymodbus python3-serial-asyncio mbpoll socat haproxy valgrind systemd \
+man-db groff-base gnuplot-nox procps"
 pkgs_bench="libgsl-dev libcubature-dev gnuplot-nox redis-server redis-tools"
 pkgs_demo="gnuplot-nox"
 
