@@ -75,7 +75,7 @@ handshake-timeout-ms = 2000
 frame-timeout-ms = 1500
 job-time-limit-ms = 60000
 shutdown-timeout-ms = 3000
-max-jobs = 64
+max-jobs = 1024
 max-jobs-per-conn = 16
 CONF
 SOCK="$tmp/qmcd.sock"
@@ -90,7 +90,7 @@ hostile specs
 hostile random_frames 10000 1
 hostile slowloris 40
 hostile load 200 1000 "$tmp/job.json"
-hostile saturate 12
+hostile saturate 20
 
 # A client killed mid-stream (SIGKILL, the socket reset), then others.
 "$QMC" points --connect "unix:$SOCK" --seq sobol --dims 64 --count 50000000 \
