@@ -22,6 +22,10 @@ CFLAGS   := -std=c11 $(WARN) -ffp-contract=off -fPIC $(OPT) \
             -D_POSIX_C_SOURCE=200809L -Iinclude $(EXTRA_CFLAGS)
 LDLIBS   := -lm
 DAEMON_LIBS := $(shell pkg-config --libs libsystemd 2>/dev/null)
+# libmodbus: the daemon's RTU line only (daemon/modbus_rtu.c); the Modbus
+# tests' C client and the benchmark's peer server link it too.
+MODBUS_CFLAGS := $(shell pkg-config --cflags libmodbus 2>/dev/null)
+MODBUS_LIBS   := $(shell pkg-config --libs libmodbus 2>/dev/null)
 DEPFLAGS  = -MMD -MP
 
 CORE_SRC    := $(wildcard core/*.c)
@@ -76,6 +80,7 @@ $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
                                                 -mavx512bw -mavx512dq
 endif
+$(BUILD)/daemon/modbus_rtu.o: PRIVATE_INC := $(MODBUS_CFLAGS)
 $(BUILD)/%.o: %.c
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(PRIVATE_INC) $(DEPFLAGS) -c $< -o $@
@@ -110,7 +115,7 @@ $(QMC): $(CLI_OBJ) $(ALL_LIBS)
 
 $(QMCD): $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC)
 	$(CC) $(CFLAGS) -pthread -o $@ $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC) $(LDLIBS) \
-	  $(DAEMON_LIBS) $(LDFLAGS)
+	  $(DAEMON_LIBS) $(MODBUS_LIBS) $(LDFLAGS)
 
 # ---- tests --------------------------------------------------------------------
 $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)

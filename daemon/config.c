@@ -20,6 +20,7 @@
 
 #include "config.h"
 #include "log.h"
+#include "modbus_spec.h"
 #include "qmc/seq.h"
 
 typedef struct num_key {
@@ -62,6 +63,11 @@ void qmcd_usage(void)
           "logged and written to --ready-file).  Without --foreground qmcd forks and the\n"
           "parent exits once the child is ready.  SIGHUP re-reads the config (limits and\n"
           "log level); SIGTERM drains jobs for shutdown-timeout-ms and exits 0.\n"
+          "\n"
+          "Modbus (protocol/MODBUS.md), off by default, repeatable:\n"
+          "  --modbus tcp:HOST:PORT          e.g. tcp:127.0.0.1:1502, tcp:[::1]:1502\n"
+          "  --modbus rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT]\n"
+          "  --modbus-allow CIDR,...         clients let in; required off loopback\n"
           "\n"
           "KEY (also usable as `key = value` in the config file), default:\n",
           stdout);
@@ -149,6 +155,43 @@ static int set_key(qmcd_config *c, const char *key, const char *value, char *why
             return -1;
         }
         strcpy(c->listen[c->n_listen++], value);
+        return 0;
+    }
+    if (strcmp(key, "modbus") == 0) {
+        if (strlen(value) >= QMCD_PATH_BYTES) {
+            snprintf(why, n, "modbus: value longer than %d bytes", QMCD_PATH_BYTES - 1);
+            return -1;
+        }
+        if (c->n_modbus == QMCD_MAX_LISTEN) {
+            snprintf(why, n, "modbus: more than %d transports", QMCD_MAX_LISTEN);
+            return -1;
+        }
+        qmcd_modbus_rtu_spec rtu;
+        if (qmcd_modbus_spec_parse(value, NULL, &rtu, why, n) < 0)
+            return -1;
+        strcpy(c->modbus[c->n_modbus++], value);
+        return 0;
+    }
+    if (strcmp(key, "modbus-allow") == 0) {
+        /* Repeated keys add to the list. */
+        qmcd_cidr nets[QMCD_MODBUS_MAX_ALLOW];
+        unsigned n_nets = 0;
+        if (qmcd_modbus_allow_parse(c->modbus_allow, nets, &n_nets, why, n) != 0 ||
+            qmcd_modbus_allow_parse(value, nets, &n_nets, why, n) != 0)
+            return -1;
+        if (n_nets == 0) {
+            snprintf(why, n, "modbus-allow: no address given");
+            return -1;
+        }
+        size_t have = strlen(c->modbus_allow);
+        if (have + 1 + strlen(value) >= sizeof c->modbus_allow) {
+            snprintf(why, n, "modbus-allow: the list is longer than %zu bytes",
+                     sizeof c->modbus_allow - 1);
+            return -1;
+        }
+        if (have)
+            c->modbus_allow[have++] = ',';
+        strcpy(c->modbus_allow + have, value);
         return 0;
     }
     snprintf(why, n, "unknown key '%s' (see qmcd --help)", key);
@@ -243,7 +286,7 @@ int qmcd_args_parse(int argc, char **argv, qmcd_args *args)
 static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t n)
 {
     char problem[400];
-    int listen_seen = 0;
+    int listen_seen = 0, modbus_seen = 0, modbus_allow_seen = 0;
     for (int i = 1; i < args->argc; i++) {
         const char *a = args->argv[i];
         if (strncmp(a, "--", 2) != 0) {
@@ -278,6 +321,15 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
         if (strcmp(key, "listen") == 0 && !listen_seen) {
             c->n_listen = 0;
             listen_seen = 1;
+        }
+        /* So do --modbus and --modbus-allow the file's. */
+        if (strcmp(key, "modbus") == 0 && !modbus_seen) {
+            c->n_modbus = 0;
+            modbus_seen = 1;
+        }
+        if (strcmp(key, "modbus-allow") == 0 && !modbus_allow_seen) {
+            c->modbus_allow[0] = '\0';
+            modbus_allow_seen = 1;
         }
         if (set_key(c, key, value, problem, sizeof problem) != 0) {
             snprintf(why, n, "--%s", problem);
@@ -321,4 +373,14 @@ void qmcd_config_keep_fixed(const qmcd_config *old, qmcd_config *fresh)
     fresh->n_listen = old->n_listen;
     memcpy(fresh->ready_file, old->ready_file, sizeof fresh->ready_file);
     fresh->foreground = old->foreground;
+    /* The Modbus transports and their allow list are fixed at start. */
+    int modbus_changed = old->n_modbus != fresh->n_modbus ||
+                         strcmp(old->modbus_allow, fresh->modbus_allow) != 0;
+    for (unsigned i = 0; !modbus_changed && i < old->n_modbus; i++)
+        modbus_changed = strcmp(old->modbus[i], fresh->modbus[i]) != 0;
+    if (modbus_changed)
+        qmcd_warn("reload: modbus and modbus-allow change only on restart; keeping them");
+    memcpy(fresh->modbus, old->modbus, sizeof fresh->modbus);
+    fresh->n_modbus = old->n_modbus;
+    memcpy(fresh->modbus_allow, old->modbus_allow, sizeof fresh->modbus_allow);
 }

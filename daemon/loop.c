@@ -29,6 +29,7 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
+#include "modbus_bridge.h"
 
 int64_t qmcd_now_ms(void)
 {
@@ -88,6 +89,7 @@ static void begin_drain(qmcd_server *srv, const char *why)
                 (unsigned long long)srv->n_jobs, (unsigned long long)srv->n_conns,
                 (unsigned long long)srv->cfg.shutdown_timeout_ms);
     qmcd_listeners_close(srv);
+    qmcd_modbus_drain(srv);
     qmcd_main_notify(srv, "STOPPING=1");
 }
 
@@ -146,6 +148,7 @@ static void on_tick(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             qmcd_loop_mod(srv, &srv->listeners[i].w, EPOLLIN) == 0)
             srv->listeners[i].paused = 0;
     qmcd_conns_tick(srv, now);
+    qmcd_modbus_tick(srv, now);
     if (srv->draining)
         drain_step(srv, now);
 }
@@ -214,6 +217,7 @@ int qmcd_loop_run(qmcd_server *srv)
         /* Handlers may free connections; deferred frees happen here, after
          * every event of this round has been dispatched. */
         qmcd_conns_reap(srv);
+        qmcd_modbus_reap(srv);
         if (srv->stats.n_pending)
             qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
     }

@@ -45,12 +45,14 @@ enum {
     QMC_MODBUS_MEI_DEVICE_ID = 0x0E   /* FC43 MEI type 14 */
 };
 
-/* Exception codes sent (spec section 7).  X(name, code, meaning). */
+/* Exception codes sent (spec section 7).  X(name, code, meaning).  The
+ * handler sends 01..04; a transport sends 06 when it has no bank to give. */
 #define QMC_MODBUS_EXC_MAP(X)                                               \
     X(ILLEGAL_FUNCTION, 0x01, "function code not served")                   \
     X(ILLEGAL_ADDRESS, 0x02, "address not mapped or not writable")          \
     X(ILLEGAL_VALUE, 0x03, "bad quantity, length, value, or read past a block's end") \
-    X(SERVER_FAILURE, 0x04, "the server could not build the sequence (memory)")
+    X(SERVER_FAILURE, 0x04, "the server could not build the sequence (memory)") \
+    X(SERVER_BUSY, 0x06, "every register bank is in use (sent by the TCP transport)")
 
 enum {
 #define QMC__MB_EXC_ENUM(name, code, text) QMC_MODBUS_EX_##name = (code),
