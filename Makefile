@@ -123,8 +123,14 @@ $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
 	$(CC) $(CFLAGS) -Icore -Iprotocol -Itests/unit $(DEPFLAGS) -o $@ $< $(UNIT_HELPER) \
 	  $(ALL_LIBS) -lcmocka -pthread $(LDLIBS) $(LDFLAGS)
 
+# The Modbus e2e test's libmodbus master (tests/e2e/test_modbus.sh).
+MODBUS_CLIENT := $(BUILD)/tests/modbus-client
+$(MODBUS_CLIENT): tests/e2e/modbus_client.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
+
 # The plain suite: unit tests, end-to-end CLI tests, and the layering checks.
-test: all $(UNIT_BIN) lint-seams lint-symbols
+test: all $(UNIT_BIN) $(MODBUS_CLIENT) lint-seams lint-symbols
 	@set -e; for t in $(UNIT_BIN); do echo "== $$t"; $$t; done
 	@set -e; for t in tests/e2e/test_*.sh; do echo "== $$t"; \
 	  QMC=$(abspath $(QMC)) QMCD=$(abspath $(QMCD)) BUILD=$(abspath $(BUILD)) sh $$t; done
