@@ -16,6 +16,15 @@
  * access (section 6.21, table of conformity levels). */
 #define CONFORMITY 0x81
 
+/* strlen capped at max (strnlen is POSIX, not C11). */
+static size_t text_len(const char *s, size_t max)
+{
+    size_t n = 0;
+    while (n < max && s[n])
+        n++;
+    return n;
+}
+
 static const char *version_of(const qmc_modbus_env *env)
 {
     return env && env->version ? env->version : "";
@@ -28,7 +37,7 @@ int qmc__modbus_report_id(const qmc_modbus_env *env, qmc__mb_rd *r, qmc__mb_wr *
         return QMC_MODBUS_EX_ILLEGAL_VALUE;
     static const char hex[] = "0123456789abcdef";
     const char *v = version_of(env);
-    size_t vlen = strnlen(v, 64);
+    size_t vlen = text_len(v, 64);
     char fp[16];
     uint64_t h = env ? env->sobol_table_hash : 0;
     for (int i = 0; i < 16; i++)
@@ -90,7 +99,7 @@ int qmc__modbus_device_id(const qmc_modbus_env *env, qmc__mb_rd *r, qmc__mb_wr *
     qmc__mb_put_u8(w, (uint8_t)(last - first + 1));
     for (unsigned k = first; k <= last; k++) {
         const char *s = object(env, k);
-        size_t n = strnlen(s, 64);
+        size_t n = text_len(s, 64);
         qmc__mb_put_u8(w, (uint8_t)k);
         qmc__mb_put_u8(w, (uint8_t)n);
         qmc__mb_put_bytes(w, s, n);
