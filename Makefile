@@ -207,9 +207,24 @@ $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(DEPFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
 
+# The Modbus benchmark: a load generator (raw sockets, so a dribble is one
+# byte per write) and the libmodbus peer server it is measured against.
+MODBUS_LOAD := $(BUILD)/bench/modbus-load
+MODBUS_PEER := $(BUILD)/bench/modbus-static-server
+$(MODBUS_LOAD): bench/modbus_load.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -o $@ $< -pthread $(LDFLAGS)
+$(MODBUS_PEER): bench/modbus_static_server.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
+
+.PHONY: bench-modbus
+bench-modbus: all $(MODBUS_LOAD) $(MODBUS_PEER)
+	sh bench/bench_modbus.sh $(BUILD)
+
 # BENCH_QUICK=1 make bench: integration budgets up to 1e6 only.
 BENCH_INT_DIMS := 2 5 10 20 30
-bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD)
+bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_seq $(BUILD)/bench/seq.csv
 	gnuplot -e "csv='$(BUILD)/bench/seq.csv'; png='$(BUILD)/bench/seq-rates.png'" \
 	  bench/seq_rates.gp
@@ -223,6 +238,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD)
 	  d=$$d; png='$(BUILD)/bench/integrate-time-d$$d.png'" bench/integrate_time.gp || exit 1; done
 	@echo "charts: $(BUILD)/bench/integrate-{conv-d*,gl,time-d*}.png"
 	sh bench/bench_daemon.sh $(BUILD)
+	sh bench/bench_modbus.sh $(BUILD)
 
 # ---- demo ------------------------------------------------------------------------
 demo: deps-build deps-demo
