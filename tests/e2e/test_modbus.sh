@@ -68,10 +68,18 @@ while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
 done
 
 # ---- 2. the daemon -----------------------------------------------------------
-"$QMCD" --foreground --listen "unix:$tmp/qmcd.sock" --modbus tcp:127.0.0.1:0 \
-    --modbus "tcp:[::1]:0" --modbus "rtu:$tmp/ttyq:19200:E:8:1:5" \
-    --modbus-allow 127.0.0.1/32,::1 --modbus-frame-timeout-ms 3000 \
-    --ready-file "$tmp/ready" --log-level info 2> "$tmp/qmcd.log" &
+# The same keys work in the config file: the transports and the allow list
+# come from it (two modbus-allow lines add up), the limits from flags.
+cat > "$tmp/qmcd.conf" <<EOF
+modbus = tcp:127.0.0.1:0
+modbus = tcp:[::1]:0
+modbus = rtu:$tmp/ttyq:19200:E:8:1:5
+modbus-allow = 127.0.0.1/32
+modbus-allow = ::1
+EOF
+"$QMCD" --foreground --config "$tmp/qmcd.conf" --listen "unix:$tmp/qmcd.sock" \
+    --modbus-frame-timeout-ms 3000 --ready-file "$tmp/ready" --log-level info \
+    2> "$tmp/qmcd.log" &
 pid=$!
 i=0
 while [ ! -s "$tmp/ready" ]; do
