@@ -38,8 +38,8 @@
 #define NO_ALLOC_HOOK 1
 #endif
 
-static int fail_aligned_alloc;
 #ifndef NO_ALLOC_HOOK
+static int fail_aligned_alloc;
 void *__libc_memalign(size_t alignment, size_t bytes);
 void *aligned_alloc(size_t alignment, size_t bytes);
 void *aligned_alloc(size_t alignment, size_t bytes)
