@@ -5,7 +5,7 @@
 # a socat pty pair; everything started here is stopped by PID.
 #
 #   - mbpoll (-0, -B, -t 3:hex, -t 3:float) reads exactly the registers
-#     `qmc points` predicts, in both word orders;
+#     `qmc points` predicts, in both word orders, over TCP and RTU;
 #   - the libmodbus C client (tests/e2e/modbus_client.c) does it with one
 #     modbus_write_and_read_registers per point over TCP v4 and v6, and
 #     over the RTU line (unit 5; unit 6 gets no answer; FC17 works there);
@@ -172,6 +172,16 @@ for ep in "tcp:127.0.0.1:$P4" "tcp:::1:$P6" "rtu:$tmp/ttyc"; do
     point_case "$ep" $unit halton 2 5 faure 3 99 2 0 4294967295 3
     point_case "$ep" $unit random 3 2 none 0 31337 1 0 77 4
 done
+# mbpoll as the RTU master too: FC16 then FC04, the same registers as TCP.
+MBR="mbpoll -m rtu -b 19200 -P even -a 5 -0 -1 -o 5"
+$MBR -t 4 -r 0 "$tmp/ttyc" 1 4 1 0 7 0 0 0 0 123 42 > "$tmp/mb.out" 2>&1
+check "mbpoll RTU FC16 write: $(tail -n 2 "$tmp/mb.out")" $?
+$MBR -t 3:hex -r 0 -c 14 "$tmp/ttyc" 2>&1 | sed -n 's/^\[\([0-9]*\)\]:[[:space:]]*0x\(....\)$/\2/p' |
+    tr 'A-F' 'a-f' > "$tmp/got"
+{ printf '002a\n0000\n0000\n0000\n0000\n007b\n'
+  words sobol 4 owen 7 123 f32 | sed 's/^\(....\)\(....\)$/\1\n\2/'; } > "$tmp/want"
+cmp -s "$tmp/got" "$tmp/want"
+check "mbpoll RTU registers == qmc points: $(tr '\n' ' ' < "$tmp/got")" $?
 out=$("$CLIENT" "rtu:$tmp/ttyc" 5 report 2>&1)
 case $out in "51 ff qmcd "*" sobol:"*) ok ;; *) bad "RTU FC17: '$out'" ;; esac
 "$CLIENT" "rtu:$tmp/ttyc" 6 input 0 1 > "$tmp/out" 2>&1
@@ -181,7 +191,7 @@ check "RTU unit 6 (not ours) gets no answer: $(cat "$tmp/out")" $?
 # ignores it (a multi-drop bus would carry one); a master retries after
 # its timeout, and the retry is served.
 out=$("$CLIENT" "rtu:$tmp/ttyc" 5 input 0 1 2>&1) || out=$("$CLIENT" "rtu:$tmp/ttyc" 5 input 0 1 2>&1)
-[ "$out" = "4" ]
+[ "$out" = "42" ]
 check "RTU serves unit 5 again after the foreign frame: '$out'" $?
 
 # ---- 5. pymodbus, hostile and crowded clients ---------------------------------
