@@ -19,7 +19,7 @@
 # Targets (reported, never asserted): qmcd's rate >= 1.0x the peer's; the 9
 # clients' p99 under a dribbler no worse than 2x their p99 without one.
 # Writes BUILD/bench/modbus.txt.  Everything started is stopped by PID;
-# nothing listens beyond loopback.  Env: BENCH_MODBUS_REPS (3),
+# nothing listens beyond loopback.  Env: BENCH_MODBUS_REPS (5),
 # BENCH_MODBUS_SECONDS (2 per run).
 set -u
 BUILD=${1:-build}
@@ -27,7 +27,7 @@ QMCD=$BUILD/qmcd
 LOAD=$BUILD/bench/modbus-load
 PEER=$BUILD/bench/modbus-static-server
 OUT=$BUILD/bench/modbus.txt
-REPS=${BENCH_MODBUS_REPS:-3}
+REPS=${BENCH_MODBUS_REPS:-5}
 SECS=${BENCH_MODBUS_SECONDS:-2}
 tmp=$(mktemp -d)
 qpid= ppid_=
