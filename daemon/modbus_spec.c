@@ -50,7 +50,11 @@ static int parse_rtu(const char *spec, qmcd_modbus_rtu_spec *rtu, char *why, siz
     }
     static const char usage[] =
         "want rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT], e.g. rtu:/dev/ttyUSB0:19200:E:8:1";
-    if (nf < 5 || !spec[0] || spec[strlen(spec) - 1] == ':' || strstr(spec, "::")) {
+    size_t colons = 0;
+    for (const char *p = spec; *p; p++)
+        colons += *p == ':';
+    if (nf < 5 || colons > 5 || !spec[0] || spec[strlen(spec) - 1] == ':' ||
+        strstr(spec, "::")) {
         snprintf(why, n, "modbus: rtu:%s: %s", spec, usage);
         return -1;
     }
@@ -80,8 +84,7 @@ static int parse_rtu(const char *spec, qmcd_modbus_rtu_spec *rtu, char *why, siz
     }
     rtu->unit = 1;
     if (nf == 6) {
-        /* strtok_r stopped at six fields: nothing may follow the unit. */
-        if (strchr(field[5], ':') || parse_int(field[5], 1, 247, &rtu->unit) != 0) {
+        if (parse_int(field[5], 1, 247, &rtu->unit) != 0) {
             snprintf(why, n, "modbus: rtu:%s: unit '%s' is not 1..247 (the spec's unicast range)",
                      spec, field[5]);
             return -1;

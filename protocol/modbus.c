@@ -115,7 +115,7 @@ static qmc_seq_spec spec_of(const uint16_t *hr)
         [QMC_MODBUS_SCRAMBLE_FAURE] = QMC_SCRAMBLE_FAURE,
     };
     qmc_seq_spec spec;
-    memset(&spec, 0, sizeof spec); /* compared with memcmp: no stray padding */
+    memset(&spec, 0, sizeof spec); /* flags 0, set_size 0: infinite kinds */
     spec.kind = kinds[hr[QMC_MODBUS_HR_KIND]];
     spec.dims = hr[QMC_MODBUS_HR_DIMS];
     spec.scramble = scrambles[hr[QMC_MODBUS_HR_SCRAMBLE]];
@@ -134,7 +134,10 @@ static int compute(qmc_modbus_session *s)
     qmc_seq_spec spec = spec_of(s->hr);
     uint64_t index = get_u64(&s->hr[QMC_MODBUS_HR_INDEX_3]);
     int status = QMC_MODBUS_STATUS_OK;
-    if (!s->seq || memcmp(&spec, &s->seq_spec, sizeof spec) != 0) {
+    const qmc_seq_spec *had = &s->seq_spec;
+    int same = s->seq && had->kind == spec.kind && had->dims == spec.dims &&
+               had->scramble == spec.scramble && had->seed == spec.seed;
+    if (!same) {
         qmc_seq *fresh = NULL;
         if (qmc_seq_spec_check(&spec, NULL, 0) != 0) {
             status = QMC_MODBUS_STATUS_BAD_SPEC;
