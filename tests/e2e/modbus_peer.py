@@ -14,6 +14,8 @@ exit status is the number of failures.
   modbus_peer.py stall HOST PORT       a half-sent frame is closed by the
                                        partial-frame deadline
   modbus_peer.py raw HOST PORT         bad MBAP headers close the connection
+  modbus_peer.py limits HOST PORT      against --modbus-max-sessions 2 and
+                                       --modbus-max-connections 3
 
 Raw frames are built here from the spec (MBAP: transaction id, protocol
 id 0, length, unit id; then the PDU), not from pymodbus.
@@ -273,6 +275,35 @@ def run_raw(host, port):
     s.close()
 
 
+def run_limits(host, port):
+    socks = [connect(host, port) for _ in range(3)]
+    # Two banks (units 1 and 2) fit; a third client gets exception 06 and
+    # the first two keep their state.
+    write_single(socks[0], 1, 1, 10, 11)
+    write_single(socks[1], 2, 2, 10, 22)
+    socks[2].sendall(adu(3, 3, struct.pack(">BHH", 6, 10, 33)))
+    tid, unit, pdu = recv_adu(socks[2])
+    check("limits: a third bank is refused with exception 06", pdu == b"\x86\x06", repr(pdu))
+    check("limits: the two banks keep their state",
+          read_input(socks[2], 4, 1, 0, 1) == [11] and read_input(socks[0], 5, 2, 0, 1) == [22])
+    # A fourth connection is closed at accept, unanswered.
+    extra = connect(host, port)
+    try:
+        extra.sendall(adu(6, 1, struct.pack(">BHH", 4, 0, 1)))
+        got = extra.recv(100)
+    except (ConnectionResetError, BrokenPipeError):
+        got = b""
+    check("limits: a connection past modbus-max-connections is closed", got == b"", repr(got))
+    extra.close()
+    ctr = read_input(socks[0], 7, 1, 200, 24)
+    vals = [ctr[4 * i] << 48 | ctr[4 * i + 1] << 32 | ctr[4 * i + 2] << 16 | ctr[4 * i + 3]
+            for i in range(6)]
+    check("limits: counters (exceptions 1, accepted 3, refused 1, open 3)",
+          vals[2] == 1 and vals[3] == 3 and vals[4] == 1 and vals[5] == 3, repr(vals))
+    for s in socks:
+        s.close()
+
+
 def main():
     mode, host, port = sys.argv[1], sys.argv[2], int(sys.argv[3])
     if mode == "pymodbus":
@@ -285,6 +316,8 @@ def main():
         run_refused(host, port, sys.argv[4])
     elif mode == "raw":
         run_raw(host, port)
+    elif mode == "limits":
+        run_limits(host, port)
     elif mode == "stall":
         # Half a frame, then silence: the partial-frame deadline closes it
         # (whenever it comes: the assertion is the close, not its time).

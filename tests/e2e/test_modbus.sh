@@ -14,7 +14,8 @@
 #   - a client dribbling one byte every 100 ms while another completes 22
 #     requests in between; 200 connections at once; a client from
 #     127.0.0.2 outside modbus-allow closed and counted; bad MBAP headers;
-#     a half-sent frame closed by the partial-frame deadline;
+#     a half-sent frame closed by the partial-frame deadline; exception 06
+#     past modbus-max-sessions and a close past modbus-max-connections;
 #   - bad settings are one line and a non-zero exit, and a listener off
 #     loopback without modbus-allow refuses to start (before binding).
 # Env: QMC, QMCD, BUILD.  Prints "N passed, M failed".
@@ -26,9 +27,9 @@ here=$(cd "$(dirname "$0")" && pwd)
 CLIENT="$BUILD/tests/modbus-client"
 PEER="/usr/bin/python3 $here/modbus_peer.py"
 tmp=$(mktemp -d)
-pid= socat_pid= stall_pid=
+pid= socat_pid= stall_pid= lim_pid=
 cleanup() {
-    for p in $stall_pid $pid $socat_pid; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done
+    for p in $stall_pid $lim_pid $pid $socat_pid; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done
     rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -219,7 +220,24 @@ check "the refusal is logged" $?
 grep -q "frame unfinished after 3000 ms" "$tmp/qmcd.log"
 check "the stalled frame is logged" $?
 
-# ---- 6. the protocol listener still works; SIGTERM exits 0 -----------------------
+# ---- 6. the limits, on a second daemon ---------------------------------------------
+"$QMCD" --foreground --listen "unix:$tmp/lim.sock" --modbus tcp:127.0.0.1:0 \
+    --modbus-max-sessions 2 --modbus-max-connections 3 --ready-file "$tmp/lim.ready" \
+    2> "$tmp/lim.log" &
+lim_pid=$!
+i=0
+while [ ! -s "$tmp/lim.ready" ] && kill -0 $lim_pid 2>/dev/null && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01
+done
+LP=$(sed -n 's/^modbus:tcp:127\.0\.0\.1:\([0-9]*\)$/\1/p' "$tmp/lim.ready")
+$PEER limits 127.0.0.1 "$LP" > "$tmp/lim.out" 2>&1
+check "limits: $(grep FAIL "$tmp/lim.out")" $?
+pass=$((pass + $(grep -c "^ok " "$tmp/lim.out")))
+kill $lim_pid; wait $lim_pid
+check "the second daemon exits 0" $?
+lim_pid=
+
+# ---- 7. the protocol listener still works; SIGTERM exits 0 -----------------------
 "$QMC" ping --connect "unix:$tmp/qmcd.sock" > /dev/null 2>&1
 check "qmc ping beside the Modbus listeners" $?
 kill "$pid"
