@@ -237,7 +237,17 @@ kill $lim_pid; wait $lim_pid
 check "the second daemon exits 0" $?
 lim_pid=
 
-# ---- 7. the protocol listener still works; SIGTERM exits 0 -----------------------
+# ---- 7. SIGHUP keeps the transports and the banks --------------------------------
+kill -HUP "$pid"
+i=0
+while ! grep -q "configuration reloaded" "$tmp/qmcd.log" && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01
+done
+out=$("$CLIENT" "tcp:::1:$P6" 7 input 0 1 2>&1)
+[ "$out" = "4" ]
+check "after SIGHUP the bank of (::1, unit 7) still answers request 4: '$out'" $?
+
+# ---- 8. the protocol listener still works; SIGTERM exits 0 -----------------------
 "$QMC" ping --connect "unix:$tmp/qmcd.sock" > /dev/null 2>&1
 check "qmc ping beside the Modbus listeners" $?
 kill "$pid"
