@@ -106,6 +106,31 @@ void qmcd_modbus_write_names(const qmcd_server *srv, FILE *f)
         fprintf(f, "modbus:%s\n", qmcd__modbus_rtu_name(mb->rtus[i]));
 }
 
+uint32_t qmcd_modbus_stats(const qmcd_server *srv, qmc_stat *e, uint32_t cap)
+{
+    qmcd_modbus *mb = srv->modbus;
+    if (!mb)
+        return 0;
+    const struct {
+        const char *name;
+        const atomic_uint_fast64_t *v;
+    } rows[] = {
+        {"modbus_requests", &mb->ctr.requests},
+        {"modbus_exceptions", &mb->ctr.exceptions},
+        {"modbus_malformed_frames", &mb->ctr.malformed},
+        {"modbus_connections_accepted", &mb->ctr.conns_accepted},
+        {"modbus_connections_refused", &mb->ctr.conns_refused},
+        {"modbus_connections_open", &mb->ctr.conns_open},
+    };
+    uint32_t n = 0;
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0] && n < cap; i++, n++) {
+        e[n].name.ptr = rows[i].name;
+        e[n].name.len = (uint32_t)strlen(rows[i].name);
+        e[n].value = atomic_load_explicit(rows[i].v, memory_order_relaxed);
+    }
+    return n;
+}
+
 void qmcd_modbus_tick(qmcd_server *srv, int64_t now_ms)
 {
     if (srv->modbus)

@@ -10,6 +10,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "qmc/proto.h"
 #include "server.h"
 
 /* Opens every configured Modbus transport (TCP listeners bound, serial
@@ -34,6 +35,10 @@ void qmcd_modbus_reap(qmcd_server *srv);
  * Modbus request is answered the moment it is complete: nothing is in
  * flight), stop the serial threads. */
 void qmcd_modbus_drain(qmcd_server *srv);
+
+/* STATS entries "modbus_requests", ... (static names) into e[0 .. cap);
+ * returns how many, 0 when no Modbus transport is configured. */
+uint32_t qmcd_modbus_stats(const qmcd_server *srv, qmc_stat *e, uint32_t cap);
 
 /* Frees everything; safe after a failed open and when never opened. */
 void qmcd_modbus_close(qmcd_server *srv);

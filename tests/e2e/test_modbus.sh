@@ -250,6 +250,15 @@ check "after SIGHUP the bank of (::1, unit 7) still answers request 4: '$out'" $
 # ---- 8. the protocol listener still works; SIGTERM exits 0 -----------------------
 "$QMC" ping --connect "unix:$tmp/qmcd.sock" > /dev/null 2>&1
 check "qmc ping beside the Modbus listeners" $?
+# STATS carries the Modbus counters: requests from every peer above, the
+# refusal from 127.0.0.2, the three bad MBAP headers (RTU frames dropped
+# by libmodbus count as malformed too).
+"$QMC" stats --connect "unix:$tmp/qmcd.sock" > "$tmp/stats" 2>&1
+stat() { awk -v k="$1" '$1 == k { print $2 }' "$tmp/stats"; }
+[ "$(stat modbus_requests)" -gt 100 ] && [ "$(stat modbus_exceptions)" -ge 8 ] &&
+    [ "$(stat modbus_connections_refused)" -eq 1 ] && [ "$(stat modbus_malformed_frames)" -ge 3 ] &&
+    [ "$(stat modbus_connections_accepted)" -gt 200 ]
+check "qmc stats shows the Modbus counters: $(grep modbus_ "$tmp/stats" | tr '\n' ' ')" $?
 kill "$pid"
 wait "$pid"
 rc=$?
