@@ -163,9 +163,12 @@ fuzz-lib:
 	@$(MAKE) --no-print-directory BUILD=build/fuzz CC=clang \
 	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a
 
+# A target that drives code outside libqmc lists those sources as
+# FUZZ_SRCS_<name>; they are compiled into it with its flags.
+FUZZ_SRCS_config := daemon/config.c daemon/log.c
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
-	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -o $@ $< \
-	  build/fuzz/libqmc.a -lm
+	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -o $@ $< \
+	  $(FUZZ_SRCS_$*) build/fuzz/libqmc.a -lm
 endif
 
 fuzz: deps-test $(FUZZ_BIN)
@@ -250,7 +253,7 @@ BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
 SO_VERSION  := 0.1.0
 SO_NAME     := libqmcclient.so.0
 D := $(DESTDIR)
-INSTALL_DOCS := README.md NOTICE $(wildcard docs/OPERATIONS.md) systemd/haproxy-qmcd.cfg
+INSTALL_DOCS := README.md NOTICE docs/OPERATIONS.md systemd/haproxy-qmcd.cfg
 
 install: all
 	install -d $(D)$(BINDIR) $(D)$(SBINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/qmc \
