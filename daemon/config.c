@@ -184,6 +184,17 @@ static const text_key text_keys[] = {
 };
 #define N_TEXT_KEYS (sizeof text_keys / sizeof text_keys[0])
 
+static int key_known(const char *key)
+{
+    for (size_t i = 0; i < N_NUM_KEYS; i++)
+        if (strcmp(key, num_keys[i].key) == 0)
+            return 1;
+    for (size_t i = 0; i < N_TEXT_KEYS; i++)
+        if (strcmp(key, text_keys[i].key) == 0)
+            return 1;
+    return 0;
+}
+
 /* Sets one key.  Returns 0, or -1 with the problem in why. */
 static int set_key(qmcd_config *c, const char *key, const char *value, char *why, size_t n)
 {
@@ -341,6 +352,10 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
         }
         if (strcmp(key, "check-config") == 0 && !eq)
             continue;
+        if (strcmp(key, "config") != 0 && !key_known(key)) {
+            snprintf(why, n, "unknown option '--%s' (see qmcd --help)", key);
+            return -1;
+        }
         if (eq) {
             value = eq + 1;
         } else if (i + 1 < args->argc) {
