@@ -184,18 +184,8 @@ static const text_key text_keys[] = {
 };
 #define N_TEXT_KEYS (sizeof text_keys / sizeof text_keys[0])
 
-static int key_known(const char *key)
-{
-    for (size_t i = 0; i < N_NUM_KEYS; i++)
-        if (strcmp(key, num_keys[i].key) == 0)
-            return 1;
-    for (size_t i = 0; i < N_TEXT_KEYS; i++)
-        if (strcmp(key, text_keys[i].key) == 0)
-            return 1;
-    return 0;
-}
-
-/* Sets one key.  Returns 0, or -1 with the problem in why. */
+/* Sets one key.  Returns 0, or -1 with the problem in why (-2 when the key
+ * is unknown, so that a flag can say "unknown option"). */
 static int set_key(qmcd_config *c, const char *key, const char *value, char *why, size_t n)
 {
     for (size_t i = 0; i < N_NUM_KEYS; i++)
@@ -205,7 +195,7 @@ static int set_key(qmcd_config *c, const char *key, const char *value, char *why
         if (strcmp(key, text_keys[i].key) == 0)
             return text_keys[i].set(c, key, value, why, n);
     snprintf(why, n, "unknown key '%s' (see qmcd --help)", key);
-    return -1;
+    return -2;
 }
 
 static char *trim(char *s)
@@ -352,10 +342,6 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
         }
         if (strcmp(key, "check-config") == 0 && !eq)
             continue;
-        if (strcmp(key, "config") != 0 && !key_known(key)) {
-            snprintf(why, n, "unknown option '--%s' (see qmcd --help)", key);
-            return -1;
-        }
         if (eq) {
             value = eq + 1;
         } else if (i + 1 < args->argc) {
@@ -371,7 +357,12 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
             c->n_listen = 0;
             listen_seen = 1;
         }
-        if (set_key(c, key, value, problem, sizeof problem) != 0) {
+        int rc = set_key(c, key, value, problem, sizeof problem);
+        if (rc == -2) {
+            snprintf(why, n, "unknown option '--%s' (see qmcd --help)", key);
+            return -1;
+        }
+        if (rc != 0) {
             snprintf(why, n, "--%s", problem);
             return -1;
         }
