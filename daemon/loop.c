@@ -21,6 +21,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <signal.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/epoll.h>
 #include <sys/signalfd.h>
@@ -94,7 +95,11 @@ static void begin_drain(qmcd_server *srv, const char *why)
                 (unsigned long long)srv->n_jobs, (unsigned long long)srv->n_conns,
                 (unsigned long long)srv->cfg.shutdown_timeout_ms);
     qmcd_listeners_close(srv);
-    qmcd_main_notify(srv, "STOPPING=1");
+    char status[160];
+    snprintf(status, sizeof status, "STOPPING=1\nSTATUS=stopping (%s): %llu job(s) get %llu ms",
+             why, (unsigned long long)srv->n_jobs,
+             (unsigned long long)srv->cfg.shutdown_timeout_ms);
+    qmcd_main_notify(srv, status);
 }
 
 static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)

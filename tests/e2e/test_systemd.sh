@@ -142,6 +142,7 @@ before=$(grep -c '^WATCHDOG=1$' "$NLOG")
 wait_count "$NLOG" '^WATCHDOG=1$' $((before + 2)) && ok || bad "watchdog pings stopped after the reloads"
 kill -TERM "$D"
 if wait_for "$NLOG" '^STOPPING=1'; then ok; else bad "no STOPPING=1 on SIGTERM"; fi
+if grep -q '^STATUS=stopping (SIGTERM): 0 job(s)' "$NLOG"; then ok; else bad "no STATUS= for the drain"; fi
 if wait_gone "$D" && wait "$D"; then ok; else bad "notify daemon: SIGTERM did not exit 0"; fi
 # STOPPING=1 is the last state sent before the exit (a ping may follow it,
 # the drain's loop still turns, but READY=1 must not)
