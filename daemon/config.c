@@ -438,6 +438,10 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
         return -1;
     if (apply_flags(args, c, why, why_bytes) != 0)
         return -1;
+    /* A rule across keys: a Modbus listener off loopback needs an allow
+     * list.  Numeric hosts are judged here, so --check-config sees it. */
+    if (qmcd_modbus_check_exposure(c, why, why_bytes) != 0)
+        return -1;
     return 0;
 }
 

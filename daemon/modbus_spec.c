@@ -230,3 +230,47 @@ int qmcd_modbus_is_loopback(const void *sockaddr)
         return a[0] == 127;
     return fam == AF_INET6 && memcmp(a, v6_loop, 16) == 0;
 }
+
+int qmcd_modbus_host_loopback(const char *hostport)
+{
+    char host[INET6_ADDRSTRLEN + 8];
+    const char *start = hostport, *end;
+    if (hostport[0] == '[') {
+        start = hostport + 1;
+        end = strchr(start, ']');
+    } else {
+        end = strrchr(hostport, ':');
+    }
+    if (!end || (size_t)(end - start) >= sizeof host)
+        return -1;
+    memcpy(host, start, (size_t)(end - start));
+    host[end - start] = '\0';
+    if (!host[0])
+        return 0; /* the wildcard */
+    struct sockaddr_in s4 = {.sin_family = AF_INET};
+    struct sockaddr_in6 s6 = {.sin6_family = AF_INET6};
+    if (inet_pton(AF_INET, host, &s4.sin_addr) == 1)
+        return qmcd_modbus_is_loopback(&s4);
+    if (inet_pton(AF_INET6, host, &s6.sin6_addr) == 1)
+        return qmcd_modbus_is_loopback(&s6);
+    return -1;
+}
+
+int qmcd_modbus_check_exposure(const qmcd_config *c, char *why, size_t why_bytes)
+{
+    if (c->modbus_allow[0])
+        return 0;
+    for (unsigned i = 0; i < c->n_modbus; i++) {
+        const char *hp = NULL;
+        if (strncmp(c->modbus[i], "tcp:", 4) != 0)
+            continue;
+        hp = c->modbus[i] + 4;
+        if (qmcd_modbus_host_loopback(hp) == 0) {
+            snprintf(why, why_bytes,
+                     "modbus tcp:%s: listening off loopback needs modbus-allow = CIDR,... "
+                     "(Modbus has no authentication)", hp);
+            return -1;
+        }
+    }
+    return 0;
+}

@@ -45,6 +45,16 @@ int qmcd_modbus_allow_parse(const char *text, qmcd_cidr *list, unsigned *n,
  * networks?  IPv4-mapped IPv6 peers match IPv4 networks. */
 int qmcd_modbus_allow_match(const qmcd_cidr *list, unsigned n, const void *sockaddr);
 
+/* The host of "HOST:PORT" / "[V6]:PORT" as written: 1 a numeric loopback
+ * address, 0 the wildcard or another numeric address, -1 a name (only
+ * resolving can tell). */
+int qmcd_modbus_host_loopback(const char *hostport);
+
+/* With no modbus-allow, every tcp transport of c must bind loopback: the
+ * numeric ones are checked here (a name is checked when it is resolved,
+ * at start).  Returns 0 or -1 with why. */
+int qmcd_modbus_check_exposure(const qmcd_config *c, char *why, size_t why_bytes);
+
 /* Is the socket address a loopback one (127.0.0.0/8, ::1, mapped 127/8)? */
 int qmcd_modbus_is_loopback(const void *sockaddr);
 

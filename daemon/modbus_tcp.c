@@ -328,25 +328,20 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     }
 }
 
-/* Would "HOST:PORT" bind a loopback address?  Resolved as qmcd_listen_tcp
- * resolves it (its first address), before anything is bound. */
+/* Would "HOST:PORT" bind a loopback address?  A name is resolved as
+ * qmcd_listen_tcp resolves it (its first address), before anything is
+ * bound. */
 static int binds_loopback(const char *hostport)
 {
+    int numeric = qmcd_modbus_host_loopback(hostport);
+    if (numeric >= 0)
+        return numeric;
     char host[256];
-    const char *end;
-    const char *start = hostport;
-    if (hostport[0] == '[') {
-        start = hostport + 1;
-        end = strchr(start, ']');
-    } else {
-        end = strrchr(hostport, ':');
-    }
-    if (!end || (size_t)(end - start) >= sizeof host)
+    const char *end = strrchr(hostport, ':');
+    if (!end || (size_t)(end - hostport) >= sizeof host)
         return 0;
-    memcpy(host, start, (size_t)(end - start));
-    host[end - start] = '\0';
-    if (!host[0])
-        return 0; /* the wildcard */
+    memcpy(host, hostport, (size_t)(end - hostport));
+    host[end - hostport] = '\0';
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM,
                              .ai_flags = AI_PASSIVE | AI_NUMERICSERV};
     struct addrinfo *res = NULL;

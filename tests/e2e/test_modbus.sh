@@ -17,7 +17,8 @@
 #     a half-sent frame closed by the partial-frame deadline; exception 06
 #     past modbus-max-sessions and a close past modbus-max-connections;
 #   - bad settings are one line and a non-zero exit, and a listener off
-#     loopback without modbus-allow refuses to start (before binding).
+#     loopback without modbus-allow refuses to start (exit 2, nothing
+#     bound; --check-config says so too).
 # Env: QMC, QMCD, BUILD.  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
@@ -42,10 +43,21 @@ bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 check() { if [ "$2" -eq 0 ]; then ok; else bad "$1"; fi; }
 
 # ---- 0. settings refused before anything is bound ---------------------------
-"$QMCD" --foreground --listen "unix:$tmp/x.sock" --modbus tcp:0.0.0.0:0 > /dev/null 2> "$tmp/err"
+for spec in tcp:0.0.0.0:0 "tcp:[::]:0" tcp:192.0.2.1:0; do
+    "$QMCD" --foreground --listen "unix:$tmp/x.sock" --modbus "$spec" > /dev/null 2> "$tmp/err"
+    rc=$?
+    [ $rc -eq 2 ] && grep -q "needs modbus-allow" "$tmp/err" && [ "$(wc -l < "$tmp/err")" -eq 1 ] &&
+        [ ! -e "$tmp/x.sock" ]
+    check "$spec without modbus-allow: exit $rc, $(cat "$tmp/err")" $?
+done
+printf 'modbus = tcp:0.0.0.0:1502\n' > "$tmp/open.conf"
+"$QMCD" --check-config --config "$tmp/open.conf" > /dev/null 2> "$tmp/err"
 rc=$?
-[ $rc -eq 1 ] && grep -q "needs modbus-allow" "$tmp/err" && [ "$(wc -l < "$tmp/err")" -eq 1 ]
-check "off loopback without modbus-allow: exit $rc, $(cat "$tmp/err")" $?
+[ $rc -eq 2 ] && grep -q "needs modbus-allow" "$tmp/err"
+check "--check-config sees the missing modbus-allow: exit $rc, $(cat "$tmp/err")" $?
+printf 'modbus = tcp:0.0.0.0:1502\nmodbus-allow = 10.0.0.0/8\n' > "$tmp/open.conf"
+"$QMCD" --check-config --config "$tmp/open.conf" > /dev/null 2> "$tmp/err"
+check "--check-config accepts it with modbus-allow: $(cat "$tmp/err")" $?
 for args in "--modbus rtu:$tmp/tty:19200:E:8:1:248" "--modbus rtu:$tmp/tty:19200:Q:8:1" \
             "--modbus udp:127.0.0.1:1502" "--modbus-allow 300.1.1.1" "--modbus-allow 10.0.0.0/40" \
             "--modbus tcp:127.0.0.1:99999"; do

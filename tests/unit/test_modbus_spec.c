@@ -148,12 +148,38 @@ static void test_loopback(void **state)
     assert_true(qmcd_modbus_is_loopback(&a));
 }
 
+static void test_exposure(void **state)
+{
+    (void)state;
+    assert_int_equal(qmcd_modbus_host_loopback("127.0.0.1:1502"), 1);
+    assert_int_equal(qmcd_modbus_host_loopback("127.1.2.3:0"), 1);
+    assert_int_equal(qmcd_modbus_host_loopback("[::1]:1502"), 1);
+    assert_int_equal(qmcd_modbus_host_loopback("0.0.0.0:1502"), 0);
+    assert_int_equal(qmcd_modbus_host_loopback("[::]:1502"), 0);
+    assert_int_equal(qmcd_modbus_host_loopback(":1502"), 0);
+    assert_int_equal(qmcd_modbus_host_loopback("10.0.0.1:1502"), 0);
+    assert_int_equal(qmcd_modbus_host_loopback("localhost:1502"), -1);
+    qmcd_config c;
+    memset(&c, 0, sizeof c);
+    char why[300];
+    strcpy(c.modbus[c.n_modbus++], "tcp:127.0.0.1:1502");
+    strcpy(c.modbus[c.n_modbus++], "rtu:/dev/ttyS0:9600:N:8:1");
+    strcpy(c.modbus[c.n_modbus++], "tcp:plc-gateway:1502"); /* judged at start */
+    assert_int_equal(qmcd_modbus_check_exposure(&c, why, sizeof why), 0);
+    strcpy(c.modbus[c.n_modbus++], "tcp:[::]:1502");
+    assert_int_equal(qmcd_modbus_check_exposure(&c, why, sizeof why), -1);
+    assert_non_null(strstr(why, "needs modbus-allow"));
+    strcpy(c.modbus_allow, "10.0.0.0/8");
+    assert_int_equal(qmcd_modbus_check_exposure(&c, why, sizeof why), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_specs),
         cmocka_unit_test(test_allow),
         cmocka_unit_test(test_loopback),
+        cmocka_unit_test(test_exposure),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
