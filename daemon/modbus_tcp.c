@@ -9,7 +9,8 @@
  * (protocol/modbus.c) with the bank of (client address, unit id) (see
  * modbus_sessions.c for why not one per connection) and the reply queued; frames are read only while a full reply still fits, so a
  * client that does not read its answers stops being read rather than
- * growing a buffer.  A client that starts a frame and does not finish it
+ * growing a buffer, and is closed once no reply has been taken for
+ * write-timeout-ms.  A client that starts a frame and does not finish it
  * within modbus-frame-timeout-ms is closed; so is one idle for
  * idle-timeout-ms.  Nothing here blocks, so a client dribbling one byte
  * every 100 ms costs the others nothing (libmodbus's own server waits in
@@ -52,6 +53,7 @@ struct qmcd_mb_conn {
     size_t in_len, out_head, out_tail;
     int64_t partial_ms;          /* when the unfinished frame began, or 0 */
     int64_t active_ms;           /* last byte read or written */
+    int64_t stall_ms;            /* replies pending and none taken since, or 0 */
     uint8_t in[IN_BYTES];
     uint8_t out[OUT_BYTES];
 };
@@ -105,12 +107,16 @@ static void flush(qmcd_mb_conn *c)
         if (n > 0) {
             c->out_head += (size_t)n;
             c->active_ms = qmcd_now_ms();
+            c->stall_ms = 0;
             continue;
         }
         if (n < 0 && errno == EINTR)
             continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            if (c->stall_ms == 0)
+                c->stall_ms = qmcd_now_ms();
             return;
+        }
         conn_close(c, n < 0 ? strerror(errno) : "send returned 0");
         return;
     }
@@ -397,7 +403,14 @@ void qmcd__modbus_tcp_tick(qmcd_modbus *mb, int64_t now_ms)
     }
     for (qmcd_mb_conn *c = mb->conns, *next; c; c = next) {
         next = c->next;
-        if (c->partial_ms && now_ms - c->partial_ms >= (int64_t)cfg->modbus_frame_timeout_ms) {
+        if (c->stall_ms && now_ms - c->stall_ms >= (int64_t)cfg->write_timeout_ms) {
+            /* It sends requests but takes no answers: reading it stopped
+             * when its replies filled the buffer; now it goes. */
+            qmcd_info("modbus: %s: no reply taken for %llu ms; closing", c->peer,
+                      (unsigned long long)cfg->write_timeout_ms);
+            conn_close(c, "write stall");
+        } else if (c->partial_ms &&
+                   now_ms - c->partial_ms >= (int64_t)cfg->modbus_frame_timeout_ms) {
             qmcd_info("modbus: %s: frame unfinished after %llu ms; closing", c->peer,
                       (unsigned long long)cfg->modbus_frame_timeout_ms);
             conn_close(c, "partial frame deadline");

@@ -16,6 +16,8 @@ exit status is the number of failures.
   modbus_peer.py raw HOST PORT         bad MBAP headers close the connection
   modbus_peer.py limits HOST PORT      against --modbus-max-sessions 2 and
                                        --modbus-max-connections 3
+  modbus_peer.py nonreader HOST PORT   a client that never reads is closed
+                                       after write-timeout-ms
 
 Raw frames are built here from the spec (MBAP: transaction id, protocol
 id 0, length, unit id; then the PDU), not from pymodbus.
@@ -304,6 +306,39 @@ def run_limits(host, port):
         s.close()
 
 
+def run_nonreader(host, port):
+    """Requests, and never a reply read: once the replies fill the buffers
+    the server stops reading and, after write-timeout-ms, closes."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    s.connect((host, port))
+    s.settimeout(0.5)
+    frame = b"".join(adu(t, 1, struct.pack(">BHH", 4, 0, 60)) for t in range(64))
+    sent = 0
+    try:
+        while sent < 50000000:
+            s.sendall(frame)
+            sent += len(frame)
+    except socket.timeout:
+        pass                      # both directions are full now
+    except (ConnectionResetError, BrokenPipeError):
+        pass
+    s.settimeout(20)
+    closed = False
+    try:
+        while True:
+            if not s.recv(65536):
+                closed = True
+                break
+    except (ConnectionResetError, BrokenPipeError):
+        closed = True
+    except socket.timeout:
+        pass
+    check("nonreader: a client that takes no replies is closed (after %d bytes sent)" % sent,
+          closed)
+    s.close()
+
+
 def main():
     mode, host, port = sys.argv[1], sys.argv[2], int(sys.argv[3])
     if mode == "pymodbus":
@@ -318,6 +353,8 @@ def main():
         run_raw(host, port)
     elif mode == "limits":
         run_limits(host, port)
+    elif mode == "nonreader":
+        run_nonreader(host, port)
     elif mode == "stall":
         # Half a frame, then silence: the partial-frame deadline closes it
         # (whenever it comes: the assertion is the close, not its time).

@@ -15,7 +15,8 @@
 #     requests in between; 200 connections at once; a client from
 #     127.0.0.2 outside modbus-allow closed and counted; bad MBAP headers;
 #     a half-sent frame closed by the partial-frame deadline; exception 06
-#     past modbus-max-sessions and a close past modbus-max-connections;
+#     past modbus-max-sessions and a close past modbus-max-connections; a
+#     client that never reads its replies closed after write-timeout-ms;
 #   - bad settings are one line and a non-zero exit, and a listener off
 #     loopback without modbus-allow refuses to start (exit 2, nothing
 #     bound; --check-config says so too).
@@ -234,7 +235,8 @@ check "the stalled frame is logged" $?
 
 # ---- 6. the limits, on a second daemon ---------------------------------------------
 "$QMCD" --foreground --listen "unix:$tmp/lim.sock" --modbus tcp:127.0.0.1:0 \
-    --modbus-max-sessions 2 --modbus-max-connections 3 --ready-file "$tmp/lim.ready" \
+    --modbus-max-sessions 2 --modbus-max-connections 3 --write-timeout-ms 200 \
+    --ready-file "$tmp/lim.ready" \
     2> "$tmp/lim.log" &
 lim_pid=$!
 i=0
@@ -245,6 +247,11 @@ LP=$(sed -n 's/^modbus:tcp:127\.0\.0\.1:\([0-9]*\)$/\1/p' "$tmp/lim.ready")
 $PEER limits 127.0.0.1 "$LP" > "$tmp/lim.out" 2>&1
 check "limits: $(grep FAIL "$tmp/lim.out")" $?
 pass=$((pass + $(grep -c "^ok " "$tmp/lim.out")))
+$PEER nonreader 127.0.0.1 "$LP" > "$tmp/lim.out" 2>&1
+check "nonreader: $(cat "$tmp/lim.out")" $?
+pass=$((pass + $(grep -c "^ok " "$tmp/lim.out")))
+grep -q "no reply taken for 200 ms" "$tmp/lim.log"
+check "the write stall is logged" $?
 kill $lim_pid; wait $lim_pid
 check "the second daemon exits 0" $?
 lim_pid=
