@@ -35,7 +35,7 @@ struct qmcd_conn {
     int peer_eof;                /* the peer half-closed: answer, then close */
     int closing;                 /* ERROR sent: flush, shut down, close */
     int wr_shut;                 /* shutdown(SHUT_WR) done: only draining */
-    int parsing;                 /* inside parse_frames (no re-entry) */
+    int parsing;                 /* inside qmcd_conn_parse (no re-entry) */
     int unix_socket;             /* AF_UNIX: read with recvmsg, may pass fds */
     uint32_t client_max_frame;   /* HELLO: the largest payload it accepts */
     uint32_t server_max_frame;   /* HELLO_OK: what we promised to accept; a
