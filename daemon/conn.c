@@ -39,6 +39,7 @@
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
+#include "peers.h"
 #include "points.h"
 
 /* Fairness: how much one connection may be sent per event. */
@@ -203,8 +204,13 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
     c->w.fd = -1;
     c->dead = 1;
     unlink_conn(c);
-    srv->n_conns--;
-    srv->stats.conns_closed++;
+    if (c->refused) {
+        srv->n_refusing--;
+    } else {
+        srv->n_conns--;
+        qmcd_peers_remove(srv->peers, &c->peer_key);
+        srv->stats.conns_closed++;
+    }
     c->next = srv->dead_conns;
     srv->dead_conns = c;
 }
@@ -268,7 +274,8 @@ static void describe_peer(int fd, const qmcd_listener *l, char *out, size_t n)
     }
 }
 
-/* Over max-connections (or draining): tell the peer why, then close.
+/* Draining, or a refusal when QMCD_REFUSING_MAX are lingering already:
+ * tell the peer why, then close at once.
  * Whatever it already sent is read first so the close does not reset the
  * connection before the ERROR arrives. */
 static void reject(qmcd_server *srv, int fd, const char *why)
@@ -291,6 +298,26 @@ static void reject(qmcd_server *srv, int fd, const char *why)
     srv->stats.conns_rejected++;
     srv->stats.errors_sent++;
     srv->stats.limit_hits++;
+}
+
+/* A flood of refusals is one line a second, not one per socket. */
+static void log_refusal(qmcd_server *srv, const qmcd_listener *l, const qmcd_peer_key *key,
+                        const char *why)
+{
+    int64_t now = qmcd_now_ms();
+    if (srv->refusal_log_ms && now - srv->refusal_log_ms < 1000) {
+        srv->refusals_unlogged++;
+        return;
+    }
+    char who[64];
+    qmcd_peer_key_name(key, who, sizeof who);
+    if (srv->refusals_unlogged)
+        qmcd_warn("%s: refused a connection from %s: %s (and %llu more in the last second)",
+                  l->name, who, why, (unsigned long long)srv->refusals_unlogged);
+    else
+        qmcd_warn("%s: refused a connection from %s: %s", l->name, who, why);
+    srv->refusal_log_ms = now;
+    srv->refusals_unlogged = 0;
 }
 
 void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -316,16 +343,37 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             reject(srv, fd, "server shutting down");
             continue;
         }
+        /* Who it is decides whether it may come in: one peer (an address,
+         * or a local user) may hold max-connections-per-peer, so that a
+         * greedy one cannot fill max-connections for everyone. */
+        qmcd_peer_key key;
+        if (qmcd_peer_key_of(fd, &key) != 0) {
+            reject(srv, fd, "cannot tell who this peer is");
+            continue;
+        }
+        char why[160] = "";
         if (srv->n_conns >= srv->cfg.max_connections) {
-            char why[120];
             snprintf(why, sizeof why, "max-connections (%llu) reached; try later",
                      (unsigned long long)srv->cfg.max_connections);
-            qmcd_warn("%s: refused a connection: %s", l->name, why);
+        } else if (qmcd_peers_count(srv->peers, &key) >= srv->cfg.max_connections_per_peer) {
+            char who[64];
+            qmcd_peer_key_name(&key, who, sizeof who);
+            snprintf(why, sizeof why, "max-connections-per-peer (%llu) reached for %s; "
+                     "close some connections or try later",
+                     (unsigned long long)srv->cfg.max_connections_per_peer, who);
+        }
+        if (why[0] && srv->n_refusing >= QMCD_REFUSING_MAX) {
+            /* Too many refusals already lingering: the short way. */
             reject(srv, fd, why);
             continue;
         }
         qmcd_conn *c = calloc(1, sizeof *c);
         if (!c) {
+            reject(srv, fd, "out of memory");
+            continue;
+        }
+        if (!why[0] && qmcd_peers_add(srv->peers, &key) != 0) {
+            free(c);
             reject(srv, fd, "out of memory");
             continue;
         }
@@ -339,6 +387,8 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         c->w.fd = fd;
         c->w.on_event = conn_on_event;
         c->passed_fd = -1;
+        c->peer_key = key;
+        c->refused = why[0] != 0;
         struct sockaddr_storage own;
         socklen_t own_len = sizeof own;
         c->unix_socket = getsockname(fd, (struct sockaddr *)&own, &own_len) == 0 &&
@@ -347,6 +397,8 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         c->accepted_ms = c->active_ms = qmcd_now_ms();
         describe_peer(fd, l, c->peer, sizeof c->peer);
         if (qmcd_loop_add(srv, &c->w, EPOLLIN) != 0) {
+            if (!c->refused)
+                qmcd_peers_remove(srv->peers, &key);
             close(fd);
             free(c);
             continue;
@@ -355,6 +407,18 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         if (srv->conns)
             srv->conns->prev = c;
         srv->conns = c;
+        if (c->refused) {
+            /* Refused through the ordinary closing path: the ERROR is
+             * queued, the peer's HELLO read and dropped, and the socket
+             * closed once the peer has it or QMCD_LINGER_MS passed.  An
+             * immediate close would reset a peer still sending its HELLO
+             * (which then sees "broken pipe", not our reason). */
+            srv->n_refusing++;
+            srv->stats.conns_rejected++;
+            log_refusal(srv, l, &key, why);
+            qmcd_conn_fail(c, 0, QMC_ETOOBIG, "%s", why);
+            continue;
+        }
         srv->n_conns++;
         srv->stats.conns_accepted++;
         qmcd_debug("conn %llu: accepted from %s", (unsigned long long)c->id, c->peer);

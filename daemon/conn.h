@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "peers.h"
 #include "qmc/proto.h"
 #include "server.h"
 
@@ -23,6 +24,10 @@ typedef struct qmcd_ring qmcd_ring;
 /* After an ERROR that ends a connection, how long we keep flushing it and
  * draining the peer's input before closing regardless. */
 #define QMCD_LINGER_MS 2000
+/* Refused connections (max-connections, max-connections-per-peer) linger
+ * like failed ones, so the peer reads the ERROR instead of a reset; past
+ * this many lingering at once, further refusals are closed at once. */
+#define QMCD_REFUSING_MAX 64
 
 struct qmcd_conn {
     qmcd_watch w;                /* first: epoll hands us &conn->w */
@@ -30,6 +35,8 @@ struct qmcd_conn {
     qmcd_conn *prev, *next;      /* srv->conns, or the dead list */
     uint64_t id;
     char peer[96];
+    qmcd_peer_key peer_key;      /* counted in srv->peers unless refused */
+    int refused;                 /* over a connection limit: ERROR, linger, close */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;
     int peer_eof;                /* the peer half-closed: answer, then close */
