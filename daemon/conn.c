@@ -51,30 +51,78 @@ static void conn_on_event(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 
 /* ---- output buffer ---------------------------------------------------------- */
 
+/* What the connection's buffer takes from out-buffer-total-bytes: its
+ * allocation beyond the floor every connection keeps. */
+static size_t over_floor(size_t alloc)
+{
+    return alloc > QMCD_OUT_FLOOR_BYTES ? alloc - QMCD_OUT_FLOOR_BYTES : 0;
+}
+
+/* Records a new allocation size for the global account; a shrink wakes the
+ * streams waiting for memory (at the end of the loop round). */
+static void set_out_alloc(qmcd_conn *c, size_t n)
+{
+    qmcd_server *srv = c->srv;
+    size_t before = over_floor(c->out_alloc), after = over_floor(n);
+    srv->out_over_bytes = srv->out_over_bytes - before + after;
+    if (after < before && srv->n_out_waiting)
+        srv->out_wake = 1;
+    c->out_alloc = n;
+}
+
+/* The largest allocation this connection may have now: the floor, plus
+ * what it already holds beyond it, plus what out-buffer-total-bytes still
+ * leaves unallocated. */
+static size_t alloc_allowed(const qmcd_conn *c)
+{
+    const qmcd_server *srv = c->srv;
+    uint64_t cap = srv->cfg.out_buffer_total_bytes;
+    uint64_t free_bytes = cap > srv->out_over_bytes ? cap - srv->out_over_bytes : 0;
+    return QMCD_OUT_FLOOR_BYTES + over_floor(c->out_alloc) + (size_t)free_bytes;
+}
+
 size_t qmcd_conn_out_room(const qmcd_conn *c)
 {
     size_t pending = c->out_tail - c->out_head;
     size_t cap = (size_t)c->srv->cfg.out_buffer_bytes;
-    return pending >= cap ? 0 : cap - pending;
+    size_t room = pending >= cap ? 0 : cap - pending;
+    /* Less when memory across all connections is short (the 64 bytes are
+     * the alignment slack a reservation may need). */
+    size_t allowed = alloc_allowed(c);
+    size_t global = allowed > pending + 64 ? allowed - pending - 64 : 0;
+    return global < room ? global : room;
+}
+
+/* 1 when out-buffer-total-bytes, not the connection's own cap, is what
+ * holds its output back. */
+static int short_of_global_memory(const qmcd_conn *c)
+{
+    return alloc_allowed(c) < (size_t)c->srv->cfg.out_buffer_bytes + 64;
 }
 
 uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
 {
-    if (bytes > qmcd_conn_out_room(c))
-        return NULL;
+    /* Small answers (no alignment wish) are exempt from the global cap:
+     * the reserve rule (requests are read only with QMCD_OUT_RESERVE
+     * free) already bounds them, and refusing one would close the
+     * connection. */
+    const int wants_align = align_at != QMCD_NO_ALIGN;
     size_t pending = c->out_tail - c->out_head;
+    size_t cap = (size_t)c->srv->cfg.out_buffer_bytes;
+    if (bytes > (wants_align ? qmcd_conn_out_room(c) : pending >= cap ? 0 : cap - pending))
+        return NULL;
     /* Where the new bytes start must make out + start + align_at a multiple
      * of 64.  The buffer itself is 64-byte aligned. */
     size_t start = c->out_tail;
     /* Only POINTS data asks for alignment (QMCD_NO_ALIGN otherwise): were
      * every small answer realigned, filling the buffer would move all the
      * pending bytes once per frame - quadratic in the backlog. */
-    const int wants_align = align_at != QMCD_NO_ALIGN;
     int misaligned = wants_align && ((start + align_at) & 63u) != 0;
     if (!misaligned && start + bytes <= c->out_alloc)
         return c->out + start;
     /* Move pending bytes to the front, at the offset (< 64) that aligns the
-     * new frame; grow if needed (up to the cap plus the 64-byte slack). */
+     * new frame; grow if needed (up to the cap plus the 64-byte slack, and
+     * for POINTS data within what out-buffer-total-bytes allows). */
     size_t head = wants_align ? (64u - ((pending + align_at) & 63u)) & 63u : 0;
     size_t need = head + pending + bytes;
     if (need > c->out_alloc) {
@@ -82,6 +130,8 @@ uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
         while (n < need)
             n *= 2;
         size_t max = (size_t)c->srv->cfg.out_buffer_bytes + 128;
+        if (wants_align && alloc_allowed(c) < max)
+            max = alloc_allowed(c);
         if (n > max)
             n = max < need ? need : max;
         void *p = NULL;
@@ -91,7 +141,7 @@ uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
             memcpy((uint8_t *)p + head, c->out + c->out_head, pending);
         free(c->out);
         c->out = p;
-        c->out_alloc = n;
+        set_out_alloc(c, n);
     } else if (pending && head != c->out_head) {
         memmove(c->out + head, c->out + c->out_head, pending);
     }
@@ -204,6 +254,10 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
     c->w.fd = -1;
     c->dead = 1;
     unlink_conn(c);
+    if (c->out_waiting) {
+        c->out_waiting = 0;
+        srv->n_out_waiting--;
+    }
     if (c->refused) {
         srv->n_refusing--;
     } else {
@@ -222,7 +276,22 @@ void qmcd_conns_reap(qmcd_server *srv)
         srv->dead_conns = c->next;
         free(c->in);
         free(c->out);
+        set_out_alloc(c, 0);
         free(c);
+    }
+    /* Output memory came free this round: streams that waited for it go
+     * on (a kick that finds nothing to do is cheap). */
+    if (srv->out_wake) {
+        srv->out_wake = 0;
+        qmcd_conn *next;
+        for (qmcd_conn *c = srv->conns; c; c = next) {
+            next = c->next;
+            if (c->out_waiting) {
+                c->out_waiting = 0;
+                srv->n_out_waiting--;
+                qmcd_conn_kick(c);
+            }
+        }
     }
 }
 
@@ -451,7 +520,7 @@ static int flush(qmcd_conn *c)
         /* The stream that needed a big buffer is over: give it back. */
         free(c->out);
         c->out = NULL;
-        c->out_alloc = 0;
+        set_out_alloc(c, 0);
     }
     return 0;
 }
@@ -468,9 +537,19 @@ static void update_interest(qmcd_conn *c)
     } else {
         if (!c->peer_eof && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE)
             ev |= EPOLLIN;
-        /* Streams waiting for ring slots wait for SHM_RELEASE (EPOLLIN):
-         * a writable socket alone would only spin the loop. */
-        if (pending || qmcd_points_want_output(c))
+        /* Streams waiting for ring slots wait for SHM_RELEASE (EPOLLIN),
+         * and streams waiting for out-buffer-total-bytes for memory to
+         * come free (qmcd_conns_reap wakes them, the tick retries): a
+         * writable socket alone would only spin the loop. */
+        int want = qmcd_points_want_output(c);
+        if (want && !pending && short_of_global_memory(c)) {
+            want = 0;
+            if (!c->out_waiting) {
+                c->out_waiting = 1;
+                c->srv->n_out_waiting++;
+            }
+        }
+        if (pending || want)
             ev |= EPOLLOUT;
     }
     if (qmcd_loop_mod(c->srv, &c->w, ev) != 0)

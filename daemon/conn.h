@@ -21,6 +21,11 @@ typedef struct qmcd_ring qmcd_ring;
  * chunks are generated only when they leave it free.  The largest small
  * answer (a STATS_REPLY of QMC_PROTO_MAX_STATS entries) is under 20 KiB. */
 #define QMCD_OUT_RESERVE (64u << 10)
+/* Output buffer every connection may allocate whatever the other
+ * connections hold: room for the small answers (twice the reserve), so
+ * HELLO, PING and STATS are served when out-buffer-total-bytes is spent.
+ * Allocation beyond it counts against out-buffer-total-bytes. */
+#define QMCD_OUT_FLOOR_BYTES (2 * QMCD_OUT_RESERVE)
 /* After an ERROR that ends a connection, how long we keep flushing it and
  * draining the peer's input before closing regardless. */
 #define QMCD_LINGER_MS 2000
@@ -57,6 +62,7 @@ struct qmcd_conn {
     uint64_t passed_fd_to;
     uint8_t *out;                /* pending output, out[out_head .. out_tail) */
     size_t out_head, out_tail, out_alloc;
+    int out_waiting;             /* a stream waits for out-buffer-total-bytes */
     int64_t accepted_ms, active_ms;
     int64_t partial_ms;          /* when the unfinished frame began, or 0 */
     int64_t stall_ms;            /* output pending and none written since, or 0 */

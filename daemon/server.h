@@ -38,6 +38,9 @@ struct qmcd_server {
     uint64_t n_conns, next_conn_id, next_job_id;
     qmcd_peers *peers;         /* connections by peer (peers.c) */
     unsigned n_refusing;       /* refused connections still lingering */
+    uint64_t out_over_bytes;   /* output buffers beyond their floors (conn.c) */
+    unsigned n_out_waiting;    /* connections whose streams wait for them */
+    int out_wake;              /* some came free: wake the waiters */
     int64_t refusal_log_ms;    /* last refusal logged (one line a second) */
     uint64_t refusals_unlogged;
     uint64_t sobol_table_hash;  /* computed once: it hashes the whole table */

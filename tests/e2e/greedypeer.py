@@ -24,6 +24,7 @@ import resource
 import socket
 import struct
 import sys
+import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import qmcpeer  # noqa: E402
@@ -214,7 +215,79 @@ def sc_peers(tcp_addr, unix_addr, pid, per_peer):
         s.close()
 
 
-SCENARIOS = dict(peers=sc_peers)
+def settle_rss(pid, rounds=100, still=5):
+    """Samples VmRSS every 0.1 s until it has not grown by 1 MiB for `still`
+    samples in a row (at most `rounds`): returns the peak."""
+    peak, calm, last = vmrss_kb(pid), 0, vmrss_kb(pid)
+    for _ in range(rounds):
+        time.sleep(0.1)
+        now = vmrss_kb(pid)
+        peak = max(peak, now)
+        calm = calm + 1 if now - last < 1024 else 0
+        last = max(last, now)
+        if calm >= still:
+            break
+    return peak
+
+
+def sc_noread(addr, pid, conns, limit_mb):
+    """`conns` connections each ask for a 1M-point stream (16 dims, 128 MB)
+    and never read: the output buffers they fill stay under
+    out-buffer-total-bytes, and a reading client is still served."""
+    pid, conns, limit_mb = int(pid), int(conns), int(limit_mb)
+    raise_nofile(conns + 256)
+    base = vmrss_kb(pid)
+    greedy = []
+    for _ in range(conns):
+        p = Peer(addr)
+        p.s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        p.send(p.points_frame(p.rid(), dims=16, count=1 << 20))
+        greedy.append(p)
+    peak = settle_rss(pid)
+    print("# %d non-reading streams: VmRSS %d kB -> %d kB" % (conns, base, peak))
+    check("%d streams never read: VmRSS %d kB -> peak %d kB, under +%d MiB"
+          % (conns, base, peak, limit_mb), peak - base < limit_mb * 1024)
+    serves_correctly(addr, "%d non-reading streams" % conns)
+    # A reader's own big stream waits for memory (it needs a 512 KiB chunk,
+    # more than its floor) while its small requests are still answered;
+    # once the non-readers leave, it arrives whole.
+    try:
+        q = Peer(addr, timeout=20.0)
+        big = q.rid()
+        q.send(q.points_frame(big, kind="sobol", dims=2, count=1 << 15))
+        ping = q.rid()
+        q.send(q.ping_frame(ping))
+        frames = []
+        for _ in range(1000):
+            f = q.recv()
+            frames.append(f)
+            if f is None or f[1] == ping:
+                break
+        check("%d non-reading streams: a reader's PING is answered while its big stream "
+              "waits" % conns, frames and frames[-1] and frames[-1][0] == "PONG",
+              repr([f[0] for f in frames if f][:5]))
+        for p in greedy:
+            p.close()
+        greedy = []
+        data = b"".join(f[2]["data"] for f in frames if f and f[0] == "POINTS_CHUNK")
+        for _ in range(1000):
+            f = q.recv()
+            if f is None or f[0] != "POINTS_CHUNK":
+                break
+            data += f[2]["data"]
+        got = struct.unpack("<%dd" % (len(data) // 8), data)
+        want = [radical_inverse2(i) for i in range(1 << 15)]
+        check("%d non-reading streams gone: the reader's 32768-point stream arrives whole "
+              "(dimension 1 = radical inverse), then END" % conns,
+              f and f[0] == "END" and list(got[0::2]) == want, repr(f and f[0]))
+        q.close()
+    except (OSError, ValueError, PeerError) as e:
+        check("%d non-reading streams: a reader's stream arrives" % conns, False, repr(e))
+    for p in greedy:
+        p.close()
+
+
+SCENARIOS = dict(peers=sc_peers, noread=sc_noread)
 
 if __name__ == "__main__":
     sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "greedypeer.py"))

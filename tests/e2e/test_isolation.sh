@@ -77,6 +77,15 @@ chmod 666 "$tmp/peers.sock"
 greedy peers "$T" "$U" "$pid" 64
 stop "$pid"
 
+# 2. Output memory: 200 connections (one peer, its limit raised for the
+# test) ask for 1M-point streams and never read.  Without a global cap each
+# filled its 4 MiB out-buffer-bytes (RSS 5 MB -> 789 MB); with
+# out-buffer-total-bytes 32M the bound is 32 MiB plus a 128 KiB floor per
+# connection (25 MiB), so +80 MiB.
+start noread --max-connections-per-peer 256 --out-buffer-total-bytes 32M || exit 1
+greedy noread "$U" "$pid" 200 80
+stop "$pid"
+
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
