@@ -15,6 +15,7 @@
 typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_ring qmcd_ring;
+typedef struct qmcd_pool_tenant qmcd_pool_tenant;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
  * JOB_RESULT): requests are read only while this much is free, and POINTS
@@ -71,6 +72,7 @@ struct qmcd_conn {
     unsigned n_streams;
     qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
     unsigned n_jobs;
+    qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
     qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
                                     or NULL */
 };

@@ -287,7 +287,84 @@ def sc_noread(addr, pid, conns, limit_mb):
         p.close()
 
 
-SCENARIOS = dict(peers=sc_peers, noread=sc_noread)
+def huge_job(method):
+    """A job that never reaches its tolerance (tol_rel 1e-300, max_evals
+    2^64 - 1, as in the issue): sampling blocks (rqmc) or a quadrature that
+    runs none (cubature)."""
+    if method == "cubature":
+        spec = qmcpeer.cli_like_spec("genz-oscillatory", 6, "cubature")
+        spec["max_memory"] = 16 << 20
+    else:
+        spec = qmcpeer.cli_like_spec("genz-oscillatory", 8, "rqmc", 4096, 16, 1)
+    spec.update(tol_rel=1e-300, max_evals=(1 << 64) - 1)
+    return spec
+
+
+TINY = qmcpeer.cli_like_spec("poly", 1, "rqmc", 4096, 8, 3)  # x^5 over [0,1): 1/6
+
+
+def tiny_result(p):
+    """Runs the tiny job on p; returns its JOB_RESULT dict."""
+    return qmcpeer.run_job(p, TINY)
+
+
+def job_states(p, ids):
+    states = []
+    for jid in ids:
+        rid = p.rid()
+        p.send(frame(MSG["JOB_STATUS"], rid, struct.pack("<Q", jid)))
+        for _ in range(100):
+            t, r, d = p.recv()
+            if r == rid:
+                states.append(d.get("state") if t == "JOB_STATE" else t)
+                break
+    return states
+
+
+def sc_starve(addr):
+    """Eight endless jobs from one connection, both kinds in turn: another
+    connection's tiny job finishes while all eight still run or wait, with
+    the same bits as on an idle daemon and the true value within its bar."""
+    idle = Peer(addr, timeout=60.0)
+    alone = tiny_result(idle)
+    idle.close()
+    check("tiny job on an idle daemon: 1/6 within 6 standard errors (%r +- %r)"
+          % (alone["estimate"], alone["error"]),
+          abs(alone["estimate"] - 1 / 6) <= 6 * alone["error"] and alone["error"] > 0)
+    for method in ("rqmc", "cubature"):
+        g = Peer(addr, timeout=60.0)
+        ids = []
+        for _ in range(8):
+            rid = g.rid()
+            g.send(g.integrate_frame(rid, **huge_job(method)))
+            t, r, d = g.recv()
+            if t != "JOB_ACCEPTED":
+                raise ValueError("huge %s job answered %s %r" % (method, t, d))
+            ids.append(d["job_id"])
+        # They hold the workers: wait (bounded) until two of them run.
+        for _ in range(400):
+            if job_states(g, ids).count("running") >= 2:
+                break
+            time.sleep(0.05)
+        before = job_states(g, ids)
+        q = Peer(addr, timeout=60.0)
+        res = tiny_result(q)
+        after = job_states(g, ids)
+        check("%s: 8 endless jobs of one client hold the workers (%s)"
+              % (method, ",".join(before)), before.count("running") >= 2)
+        check("%s: another client's tiny job finished while all 8 still ran or waited "
+              "(after: %s)" % (method, ",".join(after)),
+              all(st in ("running", "queued") for st in after), repr(after))
+        check("%s: the tiny job under contention has the same bits as alone" % method,
+              qmcpeer.same(res["estimate"], alone["estimate"]) and
+              qmcpeer.same(res["error"], alone["error"]),
+              "%r vs %r" % (res["estimate"], alone["estimate"]))
+        q.close()
+        g.close()  # its jobs are cancelled (the connection is gone)
+        serves_correctly(addr, "%s: after 8 endless jobs" % method)
+
+
+SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve)
 
 if __name__ == "__main__":
     sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "greedypeer.py"))

@@ -86,6 +86,15 @@ start noread --max-connections-per-peer 256 --out-buffer-total-bytes 32M || exit
 greedy noread "$U" "$pid" 200 80
 stop "$pid"
 
+# 3. Workers: one connection's 8 endless jobs (rqmc blocks, then cubature
+# that runs none) against another's tiny job, asserted by order: the tiny
+# job is answered while all 8 still run or wait, with the same bits as on
+# an idle daemon.  (Before the fair pool it waited behind them: 60 s
+# socket timeout.)  max-job-evals is raised so the 8 never end by budget.
+start starve --threads 2 --max-job-evals 1099511627776 || exit 1
+greedy starve "$U"
+stop "$pid"
+
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
