@@ -31,7 +31,8 @@
     X("max-shm-bytes", max_shm_bytes, 64u << 20, 0, 1u << 30, 1)                \
     X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
-    X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1)
+    X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
+    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;

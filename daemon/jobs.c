@@ -319,8 +319,41 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     qmcd_answered(c->srv, t0_us);
 }
 
+/* max-cancels-per-conn: a bucket of that many JOB_CANCELs, refilled at
+ * that many a minute.  Cancels are cheap, but they make INTEGRATE churn
+ * cheap too (build a job, cancel it, again): this bounds the churn rate
+ * per connection.  Tokens are kept in 1/60000ths so that the refill is
+ * exact in whole milliseconds.  Returns 1 when this cancel may go on. */
+static int cancel_allowed(qmcd_conn *c)
+{
+    const uint64_t cap = c->srv->cfg.max_cancels_per_conn;
+    const uint64_t full = cap * 60000u;
+    int64_t now = qmcd_now_ms();
+    if (c->cancel_refill_ms == 0) {
+        c->cancel_tokens = full;
+    } else if (now > c->cancel_refill_ms) {
+        uint64_t add = (uint64_t)(now - c->cancel_refill_ms) * cap;
+        c->cancel_tokens = full - c->cancel_tokens <= add ? full : c->cancel_tokens + add;
+    }
+    if (c->cancel_tokens > full) /* the limit shrank on SIGHUP */
+        c->cancel_tokens = full;
+    c->cancel_refill_ms = now;
+    if (c->cancel_tokens < 60000u)
+        return 0;
+    c->cancel_tokens -= 60000u;
+    return 1;
+}
+
 void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
+    if (!cancel_allowed(c)) {
+        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                        "max-cancels-per-conn: more than %llu JOB_CANCEL a minute on this "
+                        "connection; cancel less often",
+                        (unsigned long long)c->srv->cfg.max_cancels_per_conn);
+        qmcd_answered(c->srv, t0_us);
+        return;
+    }
     qmcd_job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);

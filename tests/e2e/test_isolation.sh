@@ -95,6 +95,12 @@ start starve --threads 2 --max-job-evals 1099511627776 || exit 1
 greedy starve "$U"
 stop "$pid"
 
+# 4. Quotas: jobs in flight and cancels, per connection.
+start quota --threads 1 --max-jobs-per-conn 3 --max-cancels-per-conn 4 \
+    --max-job-evals 1099511627776 || exit 1
+greedy quota "$U" 3 4
+stop "$pid"
+
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
