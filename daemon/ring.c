@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <linux/falloc.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/vfs.h>
@@ -76,12 +77,14 @@ static int check_memfd(int fd, uint64_t bytes, char *why, size_t n)
                          "maps it, and a file that may shrink under a mapping would crash it)");
         return QMC_EINVAL;
     }
-    int write_seals = F_SEAL_WRITE;
-#ifdef F_SEAL_FUTURE_WRITE
-    write_seals |= F_SEAL_FUTURE_WRITE;
-#endif
-    if (seals & write_seals) {
+    if (seals & (F_SEAL_WRITE | F_SEAL_FUTURE_WRITE)) {
         snprintf(why, n, "SHM_ATTACH: the memfd is sealed against writing");
+        return QMC_EINVAL;
+    }
+    if (seals & F_SEAL_SEAL) {
+        snprintf(why, n, "SHM_ATTACH: the memfd is sealed with F_SEAL_SEAL, so the server "
+                         "cannot add F_SEAL_FUTURE_WRITE (which stops hole punching); seal "
+                         "only F_SEAL_SHRINK and F_SEAL_GROW");
         return QMC_EINVAL;
     }
     if (st.st_size < 0 || (uint64_t)st.st_size < bytes) {
@@ -121,6 +124,45 @@ static int check_populated(uint8_t *base, size_t bytes, char *why, size_t n)
     return 0;
 }
 
+/* 1 when this kernel refuses to punch a hole in a memfd sealed with
+ * F_SEAL_FUTURE_WRITE while a writable shared mapping of it exists (our
+ * situation after SHM_ATTACH), tried on a one-page scratch memfd; 0 when it
+ * lets the punch through or lacks the seal (before Linux 5.1). */
+static int punch_refused_by_seal(void)
+{
+    int fd = memfd_create("qmcd-seal-probe", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+    if (fd < 0)
+        return 0;
+    int refused = 0;
+    long page = sysconf(_SC_PAGESIZE);
+    size_t bytes = page > 0 ? (size_t)page : 4096;
+    void *map = MAP_FAILED;
+    if (ftruncate(fd, (off_t)bytes) == 0)
+        map = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    if (map != MAP_FAILED) {
+        ((volatile char *)map)[0] = 1; /* one allocated page to punch */
+        if (fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_FUTURE_WRITE) == 0)
+            refused = fallocate(fd, FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE, 0,
+                                (off_t)bytes) != 0 && errno == EPERM;
+        munmap(map, bytes);
+    }
+    close(fd);
+    return refused;
+}
+
+/* The probe, once per daemon. */
+static int shm_safe(qmcd_server *srv)
+{
+    if (srv->shm_seal_probe == 0) {
+        srv->shm_seal_probe = punch_refused_by_seal() ? 1 : -1;
+        if (srv->shm_seal_probe < 0)
+            qmcd_warn("shared memory: this kernel lets a client punch holes in a memfd "
+                      "sealed with F_SEAL_FUTURE_WRITE; SHM_ATTACH is refused (clients "
+                      "use inline chunks)");
+    }
+    return srv->shm_seal_probe > 0;
+}
+
 void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     const qmc_msg_shm *a = &m->u.shm;
@@ -145,6 +187,10 @@ void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_u
         err = QMC_EINVAL;
         snprintf(why, sizeof why, "SHM_ATTACH came without a file descriptor (send the memfd "
                                   "with SCM_RIGHTS in the sendmsg that carries the frame)");
+    } else if (!shm_safe(c->srv)) {
+        err = QMC_ENOTSUP;
+        snprintf(why, sizeof why, "the shared-memory transport is off on this server: its "
+                                  "kernel does not stop hole punching in a sealed memfd");
     } else if (bytes > cfg->max_shm_bytes) {
         err = QMC_ETOOBIG;
         snprintf(why, sizeof why, "max-shm-bytes: a ring of %u x %u bytes exceeds the "
@@ -160,6 +206,13 @@ void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_u
             snprintf(why, sizeof why, "SHM_ATTACH: cannot map the memfd: %s",
                      qmc_strerror(err));
         }
+    }
+    /* Sealed before the populated check, so that what it finds stays true:
+     * from here on no one can punch a hole (PROTOCOL.md section 10). */
+    if (!err && fcntl(fd, F_ADD_SEALS, F_SEAL_FUTURE_WRITE | F_SEAL_SEAL) != 0) {
+        err = -errno;
+        snprintf(why, sizeof why, "SHM_ATTACH: cannot seal the memfd with "
+                                  "F_SEAL_FUTURE_WRITE: %s", qmc_strerror(err));
     }
     if (!err)
         err = check_populated(base, (size_t)bytes, why, sizeof why);

@@ -41,6 +41,7 @@ struct qmcd_server {
     uint64_t out_over_bytes;   /* output buffers beyond their floors (conn.c) */
     unsigned n_out_waiting;    /* connections whose streams wait for them */
     int out_wake;              /* some came free: wake the waiters */
+    int shm_seal_probe;        /* ring.c: 1 sealed memfds resist punching, -1 not, 0 untried */
     int64_t refusal_log_ms;    /* last refusal logged (one line a second) */
     uint64_t refusals_unlogged;
     uint64_t sobol_table_hash;  /* computed once: it hashes the whole table */

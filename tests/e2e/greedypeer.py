@@ -429,14 +429,14 @@ def punch_hole(fd, length):
     return -ctypes.get_errno()
 
 
-def sc_punch(addr, pid):
+def sc_punch(addr, pid, ring_mb="16"):
     """After SHM_OK the client tries to give its ring's pages back to the
     kernel (fallocate PUNCH_HOLE, and MADV_REMOVE through a writable mapping
     it made before attaching), so that the daemon's writes would allocate
     them again, charged to the daemon: both must fail, and streaming the
     whole ring must leave the memfd's allocated blocks unchanged."""
     pid = int(pid)
-    slots, slot_bytes = 16, 1 << 20
+    slots, slot_bytes = int(ring_mb), 1 << 20
     size = slots * slot_bytes
     p = Peer(addr, version=2, timeout=20.0)
     fd, ro = qmcpeer.make_ring(slots, slot_bytes)
@@ -478,6 +478,16 @@ def sc_punch(addr, pid):
           blocks1 == blocks0 and blocks2 == blocks0)
     p.close()
     os.close(fd)
+    # A memfd sealed with F_SEAL_SEAL cannot get F_SEAL_FUTURE_WRITE from
+    # the server: refused, with the reason.
+    q = Peer(addr, version=2, timeout=20.0)
+    fd, _ = qmcpeer.make_ring(2, 64 << 10)
+    fcntl.fcntl(fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SEAL)
+    qmcpeer.refused(q, fd, 2, 64 << 10, "sealed with F_SEAL_SEAL", qmcpeer.QMC_EINVAL,
+                    "F_SEAL_SEAL")
+    os.close(fd)
+    check("punch: the refused connection still answers PING", q.ping())
+    q.close()
     serves_correctly(addr, "after the hole punching")
 
 
