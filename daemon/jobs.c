@@ -115,6 +115,12 @@ static int stop_cb(void *ctx)
     return must_stop(ctx);
 }
 
+/* Pool mutex held: only atomics. */
+static int task_must_stop(qmcd_pool_task *task)
+{
+    return atomic_load(&((qmcd_job *)task)->cancel) != CANCEL_NONE;
+}
+
 static int run_blocks(void *ctx, const qmc_sampling_job *sj, uint64_t first, uint64_t count,
                       qmc_sampling_sums *out)
 {
@@ -251,6 +257,7 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     j->conn = c;
     j->task.run = run_job;
     j->task.free_fn = task_free;
+    j->task.must_stop = task_must_stop;
     j->id = ++srv->next_job_id;
     j->request_id = m->request_id;
     j->progress_ms = g->progress_ms;
@@ -366,6 +373,8 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
              * answered ERROR ECANCELED when it stops. */
             job_state_msg(j, m->request_id, &r);
             r.u.state.state = QMC_JOB_CANCELLED;
+            if (atomic_load(&j->start_ms) == 0)
+                qmcd_pool_cancelled(c->srv->pool); /* queued: start it to answer */
         } else {
             job_state_msg(j, m->request_id, &r);
         }
@@ -492,6 +501,7 @@ void qmcd_jobs_tick(qmcd_conn *c, int64_t now)
 
 void qmcd_jobs_drop_all(qmcd_conn *c)
 {
+    int queued = 0;
     qmcd_pool_tenant_release(c->srv->pool, c->tenant);
     c->tenant = NULL;
     while (c->jobs) {
@@ -504,8 +514,11 @@ void qmcd_jobs_drop_all(qmcd_conn *c)
             int none = CANCEL_NONE;
             atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
             j->conn = NULL; /* qmcd_jobs_on_done frees it */
+            queued |= atomic_load(&j->start_ms) == 0;
         }
     }
+    if (queued)
+        qmcd_pool_cancelled(c->srv->pool); /* let them end now, not in turn */
 }
 
 void qmcd_jobs_cancel_all(qmcd_server *srv)
@@ -515,4 +528,5 @@ void qmcd_jobs_cancel_all(qmcd_server *srv)
             int none = CANCEL_NONE;
             atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_SHUTDOWN);
         }
+    qmcd_pool_cancelled(srv->pool);
 }

@@ -222,11 +222,19 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
         return NULL;
     qmcd_pool_tenant *t = first;
     do {
-        qmcd_pool_task *task = t->queue_head;
-        if (task && t->running < pool->tenant_running_max) {
-            t->queue_head = task->next;
-            if (!t->queue_head)
-                t->queue_tail = NULL;
+        /* A cancelled task goes past the tenant's limit: it only has to
+         * notice, and its answer should not wait for the tenant's running
+         * jobs to end. */
+        qmcd_pool_task **link = &t->queue_head, *prev = NULL;
+        while (*link && !(*link)->must_stop((*link)))
+            prev = *link, link = &(*link)->next;
+        if (!*link && t->running < pool->tenant_running_max)
+            link = &t->queue_head, prev = NULL;
+        qmcd_pool_task *task = *link;
+        if (task) {
+            *link = task->next;
+            if (t->queue_tail == task)
+                t->queue_tail = prev;
             task->next = NULL;
             t->running++;
             pool->rr_admit = t->next;
@@ -447,6 +455,13 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task *task
         t->queue_head = task;
     t->queue_tail = task;
     pthread_cond_signal(&pool->runner_cv);
+    pthread_mutex_unlock(&pool->mu);
+}
+
+void qmcd_pool_cancelled(qmcd_pool *pool)
+{
+    pthread_mutex_lock(&pool->mu);
+    pthread_cond_broadcast(&pool->runner_cv);
     pthread_mutex_unlock(&pool->mu);
 }
 

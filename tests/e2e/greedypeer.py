@@ -362,6 +362,20 @@ def sc_starve(addr):
               qmcpeer.same(res["estimate"], alone["estimate"]) and
               qmcpeer.same(res["error"], alone["error"]),
               "%r vs %r" % (res["estimate"], alone["estimate"]))
+        # A queued job cancelled is answered at once, not after the
+        # connection's running jobs end.
+        rid = g.rid()
+        g.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", ids[-1])))
+        answer = None
+        for _ in range(1000):
+            t, r, d = g.recv()
+            if t == "ERROR" and d["code"] == qmcpeer.ECANCELED:
+                answer = d
+                break
+        still = job_states(g, ids[:-1])
+        check("%s: a queued job cancelled is answered ECANCELED while the others still "
+              "run or wait (%s)" % (method, ",".join(still)),
+              answer is not None and all(st in ("running", "queued") for st in still))
         q.close()
         g.close()  # its jobs are cancelled (the connection is gone)
         serves_correctly(addr, "%s: after 8 endless jobs" % method)
