@@ -44,6 +44,9 @@
  * few block times, so hand-overs cost nothing measurable. */
 #define QUANTUM_MS 20
 #define RUNNERS_PER_WORKER 4
+/* A worker keeps its block workspace between blocks (one allocation per
+ * job, not per block), but not one this large while it idles. */
+#define WORKSPACE_KEEP_BYTES (1u << 20)
 
 typedef struct batch batch;
 
@@ -293,6 +296,11 @@ static void *worker(void *arg)
     while (!pool->stop) {
         pick p;
         if (pool->slots_free == 0 || !pick_work(pool, &p)) {
+            if (ws_bytes > WORKSPACE_KEEP_BYTES) { /* idle: give a big one back */
+                free(ws);
+                ws = NULL;
+                ws_bytes = 0;
+            }
             pthread_cond_wait(&pool->work_cv, &pool->mu);
             continue;
         }
