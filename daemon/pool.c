@@ -12,7 +12,10 @@
  * on at the interrupt hook once it has held it for QUANTUM_MS and someone
  * waits).  Within a tenant, its batches take turns too.
  *
- * Jobs are driven by runner threads (RUNNERS_PER_WORKER per worker): a
+ * Jobs are driven by runner threads (twice the workers, at least workers
+ * + RUNNERS_SPARE, so that several tenants can each fill the slots and a
+ * newcomer still finds one free; not more, since each is a task under
+ * the unit's TasksMax and each running job holds its memory): a
  * runner calls qmc_job_run, which hands its blocks to the pool through
  * qmcd_pool_run_blocks and waits for them without a slot.  A tenant may
  * have as many jobs on runners as there are workers (enough to fill every
@@ -43,7 +46,7 @@
 /* How long a job that runs no blocks keeps its slot when others wait: a
  * few block times, so hand-overs cost nothing measurable. */
 #define QUANTUM_MS 20
-#define RUNNERS_PER_WORKER 4
+#define RUNNERS_SPARE 8
 /* A worker keeps its block workspace between blocks (one allocation per
  * job, not per block), but not one this large while it idles. */
 #define WORKSPACE_KEEP_BYTES (1u << 20)
@@ -491,7 +494,7 @@ int qmcd_pool_new(unsigned workers, qmcd_pool **out)
     if (!pool)
         return -ENOMEM;
     pool->n_workers = workers;
-    pool->n_runners = workers * RUNNERS_PER_WORKER;
+    pool->n_runners = workers + (workers > RUNNERS_SPARE ? workers : RUNNERS_SPARE);
     pool->slots_free = workers;
     pool->tenant_running_max = workers;
     pool->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
