@@ -387,12 +387,13 @@ def sc_quota(addr, jobs_per_conn, cancels_per_conn):
     stays usable and the daemon serves others."""
     jobs_per_conn, cancels_per_conn = int(jobs_per_conn), int(cancels_per_conn)
     g = Peer(addr, timeout=30.0)
-    ids = []
+    ids, ids_rids = [], set()
     for _ in range(jobs_per_conn):
         rid = g.rid()
         g.send(g.integrate_frame(rid, **huge_job("rqmc")))
         t, r, d = g.recv()
         ids.append(d.get("job_id") if t == "JOB_ACCEPTED" else None)
+        ids_rids.add(rid)
     rid = g.rid()
     g.send(g.integrate_frame(rid, **huge_job("rqmc")))
     t, r, d = g.recv()
@@ -400,11 +401,16 @@ def sc_quota(addr, jobs_per_conn, cancels_per_conn):
           % jobs_per_conn, None not in ids and t == "ERROR" and r == rid and
           d["code"] == QMC_ETOOBIG and "max-jobs-per-conn" in d["message"], repr((t, d)))
     # Cancels: the bucket holds cancels_per_conn; the next is refused.
+    # (A cancelled job's own ERROR ECANCELED, for its INTEGRATE's id, may
+    # come between: each cancel's answer is the frame with its id.)
     answers = []
     for k in range(cancels_per_conn + 1):
         rid = g.rid()
         g.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", ids[k % len(ids)])))
-        t, r, d = g.recv()
+        for _ in range(100):
+            t, r, d = g.recv()
+            if r == rid or r not in ids_rids:
+                break
         answers.append((t, r == rid, d))
     firsts = all(t == "JOB_STATE" and same for t, same, _ in answers[:-1])
     t, same, d = answers[-1]
