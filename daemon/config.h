@@ -41,7 +41,8 @@
     X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)         \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
     X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
-    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)
+    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)        \
+    X("max-jobs-memory-total", max_jobs_memory_total, 1ull << 30, 1u << 20, 1ull << 44, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;

@@ -55,6 +55,7 @@ void qmcd_main_reload(qmcd_server *srv)
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
+        qmcd_pool_set_memory_total(srv->pool, fresh.max_jobs_memory_total);
         qmcd_log_set_level(fresh.log_level);
         srv->stats.reloads++;
         qmcd_notice("configuration reloaded%s%s", srv->args.config_path ? " from " : "",
@@ -218,6 +219,8 @@ int main(int argc, char **argv)
     unsigned threads = srv.cfg.threads ? (unsigned)srv.cfg.threads
                                        : (unsigned)(cpus > 0 ? cpus : 1);
     int err = qmcd_pool_new(threads, &srv.pool);
+    if (!err)
+        qmcd_pool_set_memory_total(srv.pool, srv.cfg.max_jobs_memory_total);
     if (!err)
         err = qmcd_seqcache_new(&srv.seqs);
     if (!err)

@@ -82,8 +82,17 @@ static const known_stat known[] = {
     {"jobs_cancelled", 0, "Jobs cancelled by their client or at shutdown."},
     {"jobs_timed_out", 0, "Jobs stopped by job-time-limit-ms."},
     {"config_reloads", 0, "Configuration reloads applied (SIGHUP)."},
+    {"refused_connections_per_peer", 0, "Connections refused for max-connections-per-peer."},
+    {"out_buffer_waits", 0, "Times a stream waited for out-buffer-total-bytes."},
+    {"refused_jobs_per_conn", 0, "INTEGRATEs refused for max-jobs-per-conn."},
+    {"refused_jobs", 0, "INTEGRATEs refused for max-jobs."},
+    {"refused_cancels_per_conn", 0, "JOB_CANCELs refused for max-cancels-per-conn."},
+    {"refused_job_memory", 0, "INTEGRATEs refused: alone over max-jobs-memory-total."},
+    {"job_memory_waits", 0, "Jobs that waited for max-jobs-memory-total before they ran."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
+    {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
+                                     "jobs now."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };
