@@ -265,36 +265,38 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
     if (!first)
         return NULL;
     qmcd_pool_tenant *t = first;
+    int stalled = 0; /* a task at its turn waits for memory */
     do {
-        /* A cancelled task goes past the tenant's limit: it only has to
-         * notice, and its answer should not wait for the tenant's running
-         * jobs to end. */
+        /* A cancelled task goes past the tenant's limit (and past a
+         * memory stall): it only has to notice, and its answer should not
+         * wait for the tenant's running jobs to end. */
         qmcd_pool_task **link = &t->queue_head, *prev = NULL;
         while (*link && !(*link)->must_stop((*link)))
             prev = *link, link = &(*link)->next;
         int cancelled = *link != NULL;
-        if (!*link && t->running < pool->tenant_running_max &&
+        if (!*link && !stalled && t->running < pool->tenant_running_max &&
             t->group->running < pool->peer_running_max)
             link = &t->queue_head, prev = NULL;
         qmcd_pool_task *task = *link;
         uint64_t room = pool->mem_used < pool->mem_total ? pool->mem_total - pool->mem_used : 0;
         if (task && !cancelled && task->mem_bytes > room && pool->mem_used > 0) {
             /* Its turn, but not its memory yet: it waits, and so does
-             * everyone behind it in turn, until running jobs give back
-             * enough (runner() wakes the runners when one ends).  With
-             * nothing reserved it runs whatever it needs: jobs over the
-             * total are refused at submission, so that is one queued
-             * before SIGHUP lowered the total, and it must not wait for
-             * ever. */
+             * everyone behind it in turn (but cancelled tasks), until
+             * running jobs give back enough (runner() wakes the runners
+             * when one ends).  With nothing reserved it runs whatever it
+             * needs: jobs over the total are refused at submission, so
+             * that is one queued before SIGHUP lowered the total, and it
+             * must not wait for ever. */
             pool->mem_stalls++;
-            return NULL;
+            stalled = 1;
+            task = NULL;
         }
         if (task) {
             if (cancelled)
                 task->mem_bytes = 0; /* it only has to notice */
             /* Admission stopped for memory since it was queued: it was
              * held back, at its turn or behind the one whose turn it was. */
-            if (task->mem_epoch != pool->mem_stalls)
+            else if (task->mem_epoch != pool->mem_stalls)
                 pool->mem_waits++;
             pool->mem_used += task->mem_bytes;
             *link = task->next;
@@ -303,7 +305,8 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
             task->next = NULL;
             t->running++;
             t->group->running++;
-            pool->rr_admit = t->next;
+            if (!stalled) /* the stalled tenant keeps its turn */
+                pool->rr_admit = t->next;
             return task;
         }
         t = t->next;

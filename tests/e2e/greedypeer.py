@@ -662,6 +662,27 @@ def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
                 answers[r] = d if t == "JOB_RESULT" else None
         return None
 
+    # A queued job cancelled while the others wait for memory is answered
+    # at once (cancelled jobs reserve nothing and pass the stall).
+    cp, cjid, crid = jobs.pop()
+    rid = cp.rid()
+    cp.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", cjid)))
+    cancelled = None
+    for _ in range(100):
+        t, r, d = cp.recv()
+        if t in ("JOB_RESULT", "ERROR") and r != rid:
+            answers[r] = d if t == "JOB_RESULT" else None
+            if r == crid:
+                cancelled = d
+                break
+    still = [state_of(p, jid) for p, jid, _ in jobs]
+    # (Before any running one ended: the first `fit` still run, the rest
+    # still wait.)
+    check("a queued hungry job cancelled is answered ECANCELED while the first %d still "
+          "run and the rest wait for memory (%s)" % (fit, ",".join(map(str, still))),
+          cancelled is not None and cancelled.get("code") == qmcpeer.ECANCELED and
+          still.count("running") == fit and still.count("queued") == len(jobs) - fit,
+          repr(cancelled))
     most_running, most_reserved, peak, polls = 0, 0, base, 0
     for polls in range(1, 2000):
         states = [state_of(p, jid) for p, jid, _ in jobs]
