@@ -15,6 +15,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <fcntl.h>
+#include <malloc.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -215,6 +216,17 @@ int main(int argc, char **argv)
         }
         daemonize(&ready_fd);
     }
+    /* Job workspaces (cubature regions, block sums) are large, short-lived
+     * and freed on runner threads.  After the first such free glibc raises
+     * its mmap threshold (up to 32 MiB), and serves the next ones from
+     * per-thread arenas that keep their pages once freed: RSS would then
+     * follow the most jobs each runner ever held, not the ones running
+     * (seen: 7 jobs of 24 MiB, 2 at a time, left VmRSS +194 MB).  A fixed
+     * threshold turns the dynamic one off: 1 MiB and up is always mapped
+     * and goes back to the kernel on free, so max-jobs-memory-total and
+     * out-buffer-total-bytes bound what qmcd really holds. */
+    if (mallopt(M_MMAP_THRESHOLD, 1 << 20) != 1)
+        qmcd_warn("mallopt(M_MMAP_THRESHOLD) refused: freed job memory may stay in RSS");
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     unsigned threads = srv.cfg.threads ? (unsigned)srv.cfg.threads
                                        : (unsigned)(cpus > 0 ? cpus : 1);

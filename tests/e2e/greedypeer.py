@@ -723,6 +723,11 @@ def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
           repr([r and r["estimate"] for r in results]))
     check("after the hungry jobs nothing stays reserved", st["job_memory_reserved_bytes"] == 0,
           repr(st["job_memory_reserved_bytes"]))
+    # ... and the memory went back to the kernel, not into the runners'
+    # malloc arenas (which kept 24 MiB per runner that ever ran one).
+    after = vmrss_kb(pid)
+    check("after the hungry jobs VmRSS is back near its base (%d kB -> %d kB, within 16 MiB)"
+          % (base, after), after - base < 16 * 1024)
     # One job alone over the total (a budget that could fill its
     # max_memory): refused at once, with the reason.
     big = hungry_job((total_mb + 1) << 20)
