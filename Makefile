@@ -20,7 +20,10 @@ WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes \
 # whichever compiler or flags build them.
 CFLAGS   := -std=c11 $(WARN) -ffp-contract=off -fPIC $(OPT) \
             -D_POSIX_C_SOURCE=200809L -Iinclude $(EXTRA_CFLAGS)
-LDLIBS   := -lm
+# libsodium: HMAC-SHA256 and constant-time compares for the handshake
+# (protocol/auth.c), in every program that links the protocol library.
+SODIUM_LIBS := $(shell pkg-config --libs libsodium 2>/dev/null || echo -lsodium)
+LDLIBS   := -lm $(SODIUM_LIBS)
 DAEMON_LIBS := $(shell pkg-config --libs libsystemd 2>/dev/null)
 DEPFLAGS  = -MMD -MP
 
@@ -98,7 +101,7 @@ $(LIBCLIENT): $(CLIENT_OBJ)
 # The shared client library carries the codec and the core it needs, so a
 # user links -lqmcclient alone (pkg-config qmcclient).
 $(SOCLIENT): $(CLIENT_OBJ) $(PROTO_OBJ) $(CORE_OBJ)
-	$(CC) -shared -Wl,-soname,libqmcclient.so.0 -o $@ $^ -lm -pthread $(LDFLAGS)
+	$(CC) -shared -Wl,-soname,libqmcclient.so.0 -o $@ $^ -lm $(SODIUM_LIBS) -pthread $(LDFLAGS)
 
 # (install writes its own copy for its PREFIX)
 $(BUILD)/qmcclient.pc: client/qmcclient.pc.in
