@@ -54,7 +54,7 @@ void qmcd_usage(void)
 {
     fputs("usage: qmcd [--config FILE] [--listen unix:PATH | tcp:HOST:PORT]... [--threads N]\n"
           "            [--foreground] [--log-level err|warning|notice|info|debug]\n"
-          "            [--ready-file PATH] [--KEY VALUE]...\n"
+          "            [--ready-file PATH] [--auth-key FILE] [--KEY VALUE]...\n"
           "\n"
           "Serves quasi-Monte Carlo points and integration jobs (see protocol/PROTOCOL.md).\n"
           "Default listener: unix:$RUNTIME_DIRECTORY/qmcd.sock or unix:/run/qmcd/qmcd.sock.\n"
@@ -62,6 +62,9 @@ void qmcd_usage(void)
           "logged and written to --ready-file).  Without --foreground qmcd forks and the\n"
           "parent exits once the child is ready.  SIGHUP re-reads the config (limits and\n"
           "log level); SIGTERM drains jobs for shutdown-timeout-ms and exits 0.\n"
+          "tcp::PORT listens on loopback only.  A TCP listener on any other address\n"
+          "needs --auth-key FILE (mode 0600, 16-1024 bytes; re-read on SIGHUP): clients\n"
+          "then prove they hold the same key (docs/SECURITY.md).\n"
           "\n"
           "KEY (also usable as `key = value` in the config file), default:\n",
           stdout);
@@ -128,6 +131,14 @@ static int set_key(qmcd_config *c, const char *key, const char *value, char *why
             snprintf(why, n, "foreground: '%s' is not yes or no", value);
             return -1;
         }
+        return 0;
+    }
+    if (strcmp(key, "auth-key") == 0) {
+        if (strlen(value) >= QMCD_PATH_BYTES) {
+            snprintf(why, n, "auth-key: path longer than %d bytes", QMCD_PATH_BYTES - 1);
+            return -1;
+        }
+        strcpy(c->auth_key, value); /* "" (auth-key =) means no key */
         return 0;
     }
     if (strcmp(key, "ready-file") == 0 || strcmp(key, "listen") == 0) {

@@ -29,7 +29,10 @@
     X("write-timeout-ms", write_timeout_ms, 60000, 100, 86400000ull, 1)         \
     X("out-buffer-bytes", out_buffer_bytes, 4u << 20, 2u << 20, 1u << 30, 1)    \
     X("max-shm-bytes", max_shm_bytes, 64u << 20, 0, 1u << 30, 1)                \
-    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)
+    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
+    X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
+    X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
+    X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;
@@ -38,6 +41,7 @@ typedef struct qmcd_config {
     int log_level;                 /* log.h levels; reloadable */
     int foreground;
     char ready_file[QMCD_PATH_BYTES];
+    char auth_key[QMCD_PATH_BYTES];  /* key file (auth.c), "" for none; reloadable */
     char listen[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
     unsigned n_listen;
 } qmcd_config;

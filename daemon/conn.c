@@ -47,6 +47,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "dispatch.h"
 #include "jobs.h"
@@ -234,6 +235,7 @@ void qmcd_conns_reap(qmcd_server *srv)
     while (srv->dead_conns) {
         qmcd_conn *c = srv->dead_conns;
         srv->dead_conns = c->next;
+        qmcd_auth_conn_free(c);
         free(c->in);
         free(c->out);
         free(c);
@@ -454,7 +456,8 @@ static void parse_frames_inner(qmcd_conn *c)
          * HELLO only HELLO is welcome (PROTOCOL.md), and a server-only
          * type is never a request.  The handler would refuse them too,
          * but only after up to max-frame bytes had been buffered. */
-        if (!c->hello_done && type != QMC_MSG_HELLO) {
+        if (!c->hello_done && type != QMC_MSG_HELLO &&
+            !(type == QMC_MSG_AUTH_RESPONSE && qmcd_auth_pending(c))) {
             c->srv->stats.malformed++;
             qmcd_conn_fail(c, id, QMC_EPROTO, "the first frame must be HELLO, not %s",
                            qmc_msg_type_name(type));

@@ -14,6 +14,7 @@
 typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_ring qmcd_ring;
+typedef struct qmcd_auth_conn qmcd_auth_conn;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
  * JOB_RESULT): requests are read only while this much is free, and POINTS
@@ -60,6 +61,8 @@ struct qmcd_conn {
     unsigned n_jobs;
     qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
                                     or NULL */
+    qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE
+                                    (auth.c), or NULL */
 };
 
 /* Accept handler for a listening socket's watch. */

@@ -23,6 +23,7 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "jobs.h"
 #include "listen.h"
@@ -38,6 +39,23 @@ void qmcd_main_notify(qmcd_server *srv, const char *state)
     (void)sd_notify(0, state);
 }
 
+/* SIGHUP re-reads the key file and re-checks it (mode, size), so a key
+ * rotates without a restart and a key file opened up to others stops the
+ * reload; a listener off loopback may never be left without a key. */
+static int qmcd_main_reload_key(qmcd_server *srv, const qmcd_config *fresh, char *why,
+                                size_t n)
+{
+    if (!fresh->auth_key[0]) {
+        for (unsigned i = 0; i < srv->n_listeners; i++)
+            if (srv->listeners[i].needs_key) {
+                snprintf(why, n, "auth-key removed, but %s is off loopback and needs one",
+                         srv->listeners[i].name);
+                return -1;
+            }
+    }
+    return qmcd_auth_load_key(srv->auth, fresh, why, n);
+}
+
 void qmcd_main_reload(qmcd_server *srv)
 {
     qmcd_config fresh;
@@ -45,6 +63,8 @@ void qmcd_main_reload(qmcd_server *srv)
     qmcd_main_notify(srv, "RELOADING=1");
     if (qmcd_config_load(&srv->args, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration: %s", why);
+    } else if (qmcd_main_reload_key(srv, &fresh, why, sizeof why) != 0) {
+        qmcd_err("reload rejected, keeping the running configuration and key: %s", why);
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
@@ -156,9 +176,21 @@ int main(int argc, char **argv)
     srv.epfd = srv.sig.fd = srv.tick.fd = srv.done.fd = -1;
     /* An FNV pass over all 21201 dimensions' numbers: once, not per HELLO. */
     srv.sobol_table_hash = qmc_sobol_table_hash();
+    /* The key before the listeners: a listener off loopback is refused
+     * without one, before it is bound. */
+    if (qmcd_auth_new(&srv.auth) != 0) {
+        fprintf(stderr, "qmcd: cannot initialise libsodium\n");
+        return 1;
+    }
+    if (qmcd_auth_load_key(srv.auth, &srv.cfg, why, sizeof why) != 0) {
+        fprintf(stderr, "qmcd: %s\n", why);
+        qmcd_auth_free(srv.auth);
+        return 2;
+    }
     if (qmcd_listeners_open(&srv, why, sizeof why) != 0) {
         fprintf(stderr, "qmcd: %s\n", why);
         free(srv.listeners);
+        qmcd_auth_free(srv.auth);
         return 1;
     }
     int ready_fd = -1;
@@ -168,6 +200,8 @@ int main(int argc, char **argv)
          * the ready file and the socket files we remove at exit must not
          * be relative any more. */
         int bad = absolutize(srv.cfg.ready_file, sizeof srv.cfg.ready_file);
+        if (!bad)
+            bad = absolutize(srv.cfg.auth_key, sizeof srv.cfg.auth_key);
         for (unsigned i = 0; i < srv.n_listeners && !bad; i++)
             bad = absolutize(srv.listeners[i].path, sizeof srv.listeners[i].path);
         if (!bad && srv.args.config_path) {
@@ -229,6 +263,7 @@ out:
     qmcd_seqcache_free(srv.seqs);
     qmcd_loop_close(&srv);
     free(srv.listeners);
+    qmcd_auth_free(srv.auth);
     if (srv.cfg.ready_file[0])
         unlink(srv.cfg.ready_file);
     return rc;
