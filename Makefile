@@ -164,11 +164,14 @@ ifneq ($(BUILD),build/fuzz)
 .PHONY: fuzz-lib
 fuzz-lib:
 	@$(MAKE) --no-print-directory BUILD=build/fuzz CC=clang \
-	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a
+	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a \
+	  build/fuzz/libqmcproto.a
 
+# Targets take what they need from the protocol library (fuzz_auth) and
+# the core; a target that compiles sources in itself pulls nothing twice.
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
 	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -o $@ $< \
-	  build/fuzz/libqmc.a -lm
+	  build/fuzz/libqmcproto.a build/fuzz/libqmc.a -lm $(SODIUM_LIBS)
 endif
 
 fuzz: deps-test $(FUZZ_BIN)
