@@ -10,8 +10,8 @@
 #   - with a key: qmc without one is refused, with --auth-key or
 #     QMC_AUTH_KEY_FILE it is served, remote points byte-identical to local;
 #     a wrong key gets ERROR and a closed connection; the Unix socket keeps
-#     its permissions as access control (no key needed); a key rotated by
-#     SIGHUP takes effect;
+#     its permissions as access control (no key needed), or with auth-unix 1
+#     asks for the key too; a key rotated by SIGHUP takes effect;
 #   - tests/e2e/authpeer.py: the handshake against Python's HMAC, the
 #     server's proof, reflection and downgrade refused, and the lockout by
 #     state (the right key refused after N failures from one address, while
@@ -134,6 +134,18 @@ while [ ! -s "$tmp/r3" ] && kill -0 $p3 2>/dev/null && [ $i -lt 2000 ]; do
 expect_fail "key to a keyless server" "did not ask for authentication" \
     "$QMC" ping --connect "$(grep '^tcp:' "$tmp/r3")" --count 1 --auth-key "$tmp/key"
 kill $p3 2>/dev/null; wait $p3 2>/dev/null
+
+# auth-unix 1: the Unix socket asks for the key too.
+"$QMCD" --foreground --listen "unix:$tmp/u.sock" --auth-key "$tmp/key" --auth-unix 1 \
+    --ready-file "$tmp/r4" 2> /dev/null & p4=$!
+i=0
+while [ ! -s "$tmp/r4" ] && kill -0 $p4 2>/dev/null && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01; done
+expect_fail "auth-unix 1 without a key" "requires authentication" \
+    "$QMC" ping --connect "unix:$tmp/u.sock" --count 1
+if "$QMC" ping --connect "unix:$tmp/u.sock" --count 1 --auth-key "$tmp/key" > /dev/null \
+    2> "$tmp/err"; then ok; else bad "auth-unix 1 with the key: $(cat "$tmp/err")"; fi
+kill $p4 2>/dev/null; wait $p4 2>/dev/null
 
 # Remote output is still the same bytes as local.
 for spec in "--seq sobol --dims 5 --scramble owen --seed 3 --count 5000" \
