@@ -30,6 +30,7 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
+#include "peers.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -227,6 +228,8 @@ int main(int argc, char **argv)
     if (!err)
         err = qmcd_seqcache_new(&srv.seqs);
     if (!err)
+        err = qmcd_peers_new(&srv.peers);
+    if (!err)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
@@ -261,6 +264,7 @@ out:
     qmcd_conns_reap(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
+    qmcd_peers_free(srv.peers);
     qmcd_loop_close(&srv);
     free(srv.listeners);
     qmcd_auth_free(srv.auth);

@@ -1,0 +1,370 @@
+#!/usr/bin/python3
+"""greedypeer.py - e2e scenarios for issue 15's finding 2: one client
+trying to take the daemon from everyone else (many sockets, streams it
+never reads, jobs that never end, quota floods, a shared-memory ring it
+punches holes in).  Every scenario ends with the same proof: the daemon is
+alive, serves another client correctly (answers checked against closed
+forms, not against the daemon's own output), and its VmRSS stayed under a
+stated bound.  It speaks the protocol through qmcpeer.py (the independent
+peer) and prints "ok NAME" / "FAIL NAME: why" lines like it.
+
+    greedypeer.py peers TCP_ADDR UNIX_ADDR PID PER_PEER
+    greedypeer.py noread ADDR PID CONNS LIMIT_MB
+    greedypeer.py starve ADDR
+    greedypeer.py quota ADDR JOBS_PER_CONN CANCELS_PER_CONN
+    greedypeer.py punch ADDR PID
+
+No wall-clock thresholds: order and state only ("the small job finished
+while the big ones still ran").  Every wait is bounded by a socket timeout
+and every loop by a count.
+"""
+import fcntl
+import os
+import resource
+import socket
+import struct
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import qmcpeer  # noqa: E402
+from qmcpeer import (MSG, QMC_ETOOBIG, Peer, PeerError, check, frame,  # noqa: E402
+                     vmrss_kb)
+
+GREEDY_HOST = "127.0.0.2"  # the greedy peer's source address; the legit one is 127.0.0.1
+
+
+def radical_inverse2(i):
+    """Van der Corput in base 2: Sobol's first dimension (Joe & Kuo 2008)."""
+    x, f = 0.0, 0.5
+    while i:
+        if i & 1:
+            x += f
+        i >>= 1
+        f /= 2
+    return x
+
+
+def serves_correctly(addr, name, start=0):
+    """A fresh client: HELLO, PING, and 64 two-dimensional Sobol points equal
+    to the closed form (the radical inverse, and dimension 2's direction
+    numbers XORed over the bits of the index)."""
+    try:
+        p = Peer(addr, timeout=20.0)
+        alive = p.ping()
+        data, _ = p.points(kind="sobol", dims=2, count=64, start=start)
+        p.close()
+    except (OSError, ValueError, PeerError) as e:
+        check(name + ": another client served", False, "%s: %s" % (type(e).__name__, e))
+        return False
+    got = struct.unpack("<%dd" % (len(data) // 8), data)
+    want = []
+    for i in range(start, start + 64):
+        want += [radical_inverse2(i), sobol_index_dim2(i)]
+    ok = alive and list(got) == want
+    check(name + ": another client served correctly (PING, 64 Sobol points = closed form)",
+          ok, "ping %r, first got %r want %r" % (alive, got[:6], want[:6]))
+    return ok
+
+
+def sobol_index_dim2(i):
+    """Dimension 2 of Sobol point i in index (not Gray-code) order: the XOR of
+    direction numbers v_k for the set bits k of i."""
+    v = 1 << 31
+    x, k = 0, 0
+    while i:
+        if i & 1:
+            x ^= v
+        i >>= 1
+        v ^= v >> 1
+        k += 1
+    return x / float(1 << 32)
+
+
+def rss_check(pid, base_kb, bound_mb, name):
+    now = vmrss_kb(pid)
+    check("%s: VmRSS %d kB -> %d kB, under +%d MiB" % (name, base_kb, now, bound_mb),
+          now - base_kb < bound_mb * 1024, "grew %d kB" % (now - base_kb))
+
+
+def raise_nofile(n):
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft < n:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (min(n, hard), hard))
+
+
+def hello_frame():
+    return frame(MSG["HELLO"], 1, struct.pack("<HHI", 1, 1, 1 << 20) + qmcpeer.str16("greedy"))
+
+
+def first_frame(s, buf):
+    """Reads one frame from a raw socket (bounded by its timeout); None at EOF
+    or on a reset (a reset is what an unclear refusal looks like)."""
+    while True:
+        if len(buf) >= qmcpeer.HEADER.size:
+            plen = qmcpeer.HEADER.unpack_from(buf)[5]
+            if len(buf) >= qmcpeer.HEADER.size + plen:
+                mtype = qmcpeer.HEADER.unpack_from(buf)[2]
+                d = qmcpeer.decode(mtype, bytes(buf[qmcpeer.HEADER.size:
+                                                     qmcpeer.HEADER.size + plen]))
+                del buf[:qmcpeer.HEADER.size + plen]
+                return d
+        try:
+            chunk = s.recv(65536)
+        except (ConnectionResetError, BrokenPipeError, socket.timeout):
+            return None
+        if not chunk:
+            return None
+        buf += chunk
+
+
+def flood(make_socket, n):
+    """Opens n sockets with make_socket(), sends HELLO on each and reads the
+    first answer of each: returns (sockets kept, HELLO_OK count, clear
+    refusals, unclear endings)."""
+    socks = []
+    for _ in range(n):
+        s = make_socket()
+        try:
+            s.sendall(hello_frame())
+        except (BrokenPipeError, ConnectionResetError):
+            pass  # counted below as unclear if no ERROR can be read
+        socks.append(s)
+    kept, ok, clear, unclear = [], 0, 0, 0
+    for s in socks:
+        d = first_frame(s, bytearray())
+        if d and d["type"] == "HELLO_OK":
+            ok += 1
+            kept.append(s)
+            continue
+        if d and d["type"] == "ERROR" and d["code"] == QMC_ETOOBIG and \
+                "max-connections-per-peer" in d["message"]:
+            clear += 1
+        else:
+            unclear += 1
+        s.close()
+    return kept, ok, clear, unclear
+
+
+def sc_peers(tcp_addr, unix_addr, pid, per_peer):
+    """1030 sockets from one TCP peer (127.0.0.2), then as many from one
+    Unix-socket user (root): each gets exactly max-connections-per-peer, is
+    told why for the rest, and 127.0.0.1 and another uid still get in."""
+    pid, per_peer = int(pid), int(per_peer)
+    raise_nofile(4096)
+    base = vmrss_kb(pid)
+    host, port = tcp_addr[4:].rsplit(":", 1)
+
+    def greedy_tcp():
+        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        s.settimeout(20.0)
+        s.bind((GREEDY_HOST, 0))
+        s.connect((host, int(port)))
+        return s
+
+    kept, ok, clear, unclear = flood(greedy_tcp, 1030)
+    check("1030 sockets from %s: %d in (max-connections-per-peer %d), %d told "
+          "'max-connections-per-peer' in an ERROR, %d unclear"
+          % (GREEDY_HOST, ok, per_peer, clear, unclear),
+          ok == per_peer and clear + unclear == 1030 - per_peer and unclear == 0)
+    serves_correctly(tcp_addr, "greedy TCP peer holding its limit")
+    try:
+        p = Peer(unix_addr)
+        check("greedy TCP peer: a Unix-socket client gets in", p.ping())
+        p.close()
+    except (OSError, ValueError) as e:
+        check("greedy TCP peer: a Unix-socket client gets in", False, repr(e))
+
+    def greedy_unix():
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.settimeout(20.0)
+        s.connect(unix_addr[5:])
+        return s
+
+    ukept, uok, uclear, uunclear = flood(greedy_unix, 2 * per_peer + 10)
+    check("Unix sockets from uid %d: %d in, %d told why, %d unclear"
+          % (os.getuid(), uok, uclear, uunclear),
+          uok == per_peer and uunclear == 0 and uclear == per_peer + 10)
+    # Another user is another peer: a child that drops to nobody connects.
+    if os.getuid() == 0:
+        r, w = os.pipe()
+        child = os.fork()
+        if child == 0:
+            os.close(r)
+            code = 1
+            try:
+                os.setgid(65534)
+                os.setuid(65534)
+                q = Peer(unix_addr, timeout=20.0)
+                code = 0 if q.ping() else 1
+                q.close()
+            except BaseException as e:  # reported through the exit code
+                sys.stderr.write("uid 65534 client: %r\n" % e)
+                code = 1
+            os.write(w, b"%d" % code)
+            os._exit(0)
+        os.close(w)
+        said = os.read(r, 16)
+        os.close(r)
+        os.waitpid(child, 0)
+        check("uid %d holding its limit: uid 65534 on the same socket gets in"
+              % os.getuid(), said == b"0", repr(said))
+    serves_correctly(tcp_addr, "both greedy peers holding their limits")
+    rss_check(pid, base, 64, "1030 + %d greedy sockets" % (2 * per_peer + 10))
+    for s in kept + ukept:
+        s.close()
+
+
+def settle_rss(pid, rounds=100, still=5):
+    """Samples VmRSS every 0.1 s until it has not grown by 1 MiB for `still`
+    samples in a row (at most `rounds`): returns the peak."""
+    peak, calm, last = vmrss_kb(pid), 0, vmrss_kb(pid)
+    for _ in range(rounds):
+        time.sleep(0.1)
+        now = vmrss_kb(pid)
+        peak = max(peak, now)
+        calm = calm + 1 if now - last < 1024 else 0
+        last = max(last, now)
+        if calm >= still:
+            break
+    return peak
+
+
+def sc_noread(addr, pid, conns, limit_mb):
+    """`conns` connections each ask for a 1M-point stream (16 dims, 128 MB)
+    and never read: the output buffers they fill stay under
+    out-buffer-total-bytes, and a reading client is still served."""
+    pid, conns, limit_mb = int(pid), int(conns), int(limit_mb)
+    raise_nofile(conns + 256)
+    base = vmrss_kb(pid)
+    greedy = []
+    for _ in range(conns):
+        p = Peer(addr)
+        p.s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        p.send(p.points_frame(p.rid(), dims=16, count=1 << 20))
+        greedy.append(p)
+    peak = settle_rss(pid)
+    print("# %d non-reading streams: VmRSS %d kB -> %d kB" % (conns, base, peak))
+    check("%d streams never read: VmRSS %d kB -> peak %d kB, under +%d MiB"
+          % (conns, base, peak, limit_mb), peak - base < limit_mb * 1024)
+    serves_correctly(addr, "%d non-reading streams" % conns)
+    # A reader's own big stream waits for memory (it needs a 512 KiB chunk,
+    # more than its floor) while its small requests are still answered;
+    # once the non-readers leave, it arrives whole.
+    try:
+        q = Peer(addr, timeout=20.0)
+        big = q.rid()
+        q.send(q.points_frame(big, kind="sobol", dims=2, count=1 << 15))
+        ping = q.rid()
+        q.send(q.ping_frame(ping))
+        frames = []
+        for _ in range(1000):
+            f = q.recv()
+            frames.append(f)
+            if f is None or f[1] == ping:
+                break
+        check("%d non-reading streams: a reader's PING is answered while its big stream "
+              "waits" % conns, frames and frames[-1] and frames[-1][0] == "PONG",
+              repr([f[0] for f in frames if f][:5]))
+        for p in greedy:
+            p.close()
+        greedy = []
+        data = b"".join(f[2]["data"] for f in frames if f and f[0] == "POINTS_CHUNK")
+        for _ in range(1000):
+            f = q.recv()
+            if f is None or f[0] != "POINTS_CHUNK":
+                break
+            data += f[2]["data"]
+        got = struct.unpack("<%dd" % (len(data) // 8), data)
+        want = [radical_inverse2(i) for i in range(1 << 15)]
+        check("%d non-reading streams gone: the reader's 32768-point stream arrives whole "
+              "(dimension 1 = radical inverse), then END" % conns,
+              f and f[0] == "END" and list(got[0::2]) == want, repr(f and f[0]))
+        q.close()
+    except (OSError, ValueError, PeerError) as e:
+        check("%d non-reading streams: a reader's stream arrives" % conns, False, repr(e))
+    for p in greedy:
+        p.close()
+
+
+def huge_job(method):
+    """A job that never reaches its tolerance (tol_rel 1e-300, max_evals
+    2^64 - 1, as in the issue): sampling blocks (rqmc) or a quadrature that
+    runs none (cubature)."""
+    if method == "cubature":
+        spec = qmcpeer.cli_like_spec("genz-oscillatory", 6, "cubature")
+        spec["max_memory"] = 16 << 20
+    else:
+        spec = qmcpeer.cli_like_spec("genz-oscillatory", 8, "rqmc", 4096, 16, 1)
+    spec.update(tol_rel=1e-300, max_evals=(1 << 64) - 1)
+    return spec
+
+
+TINY = qmcpeer.cli_like_spec("poly", 1, "rqmc", 4096, 8, 3)  # x^5 over [0,1): 1/6
+
+
+def tiny_result(p):
+    """Runs the tiny job on p; returns its JOB_RESULT dict."""
+    return qmcpeer.run_job(p, TINY)
+
+
+def job_states(p, ids):
+    states = []
+    for jid in ids:
+        rid = p.rid()
+        p.send(frame(MSG["JOB_STATUS"], rid, struct.pack("<Q", jid)))
+        for _ in range(100):
+            t, r, d = p.recv()
+            if r == rid:
+                states.append(d.get("state") if t == "JOB_STATE" else t)
+                break
+    return states
+
+
+def sc_starve(addr):
+    """Eight endless jobs from one connection, both kinds in turn: another
+    connection's tiny job finishes while all eight still run or wait, with
+    the same bits as on an idle daemon and the true value within its bar."""
+    idle = Peer(addr, timeout=60.0)
+    alone = tiny_result(idle)
+    idle.close()
+    check("tiny job on an idle daemon: 1/6 within 6 standard errors (%r +- %r)"
+          % (alone["estimate"], alone["error"]),
+          abs(alone["estimate"] - 1 / 6) <= 6 * alone["error"] and alone["error"] > 0)
+    for method in ("rqmc", "cubature"):
+        g = Peer(addr, timeout=60.0)
+        ids = []
+        for _ in range(8):
+            rid = g.rid()
+            g.send(g.integrate_frame(rid, **huge_job(method)))
+            t, r, d = g.recv()
+            if t != "JOB_ACCEPTED":
+                raise ValueError("huge %s job answered %s %r" % (method, t, d))
+            ids.append(d["job_id"])
+        # They hold the workers: wait (bounded) until two of them run.
+        for _ in range(400):
+            if job_states(g, ids).count("running") >= 2:
+                break
+            time.sleep(0.05)
+        before = job_states(g, ids)
+        q = Peer(addr, timeout=60.0)
+        res = tiny_result(q)
+        after = job_states(g, ids)
+        check("%s: 8 endless jobs of one client hold the workers (%s)"
+              % (method, ",".join(before)), before.count("running") >= 2)
+        check("%s: another client's tiny job finished while all 8 still ran or waited "
+              "(after: %s)" % (method, ",".join(after)),
+              all(st in ("running", "queued") for st in after), repr(after))
+        check("%s: the tiny job under contention has the same bits as alone" % method,
+              qmcpeer.same(res["estimate"], alone["estimate"]) and
+              qmcpeer.same(res["error"], alone["error"]),
+              "%r vs %r" % (res["estimate"], alone["estimate"]))
+        q.close()
+        g.close()  # its jobs are cancelled (the connection is gone)
+        serves_correctly(addr, "%s: after 8 endless jobs" % method)
+
+
+SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve)
+
+if __name__ == "__main__":
+    sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "greedypeer.py"))
