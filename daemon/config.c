@@ -305,6 +305,16 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
         return -1;
     if (apply_flags(args, c, why, why_bytes) != 0)
         return -1;
+    if (c->auth_key[0] && c->auth_key[0] != '/' && args->base_dir) {
+        char abs[QMCD_PATH_BYTES];
+        int len = snprintf(abs, sizeof abs, "%s/%s", args->base_dir, c->auth_key);
+        if (len < 0 || (size_t)len >= sizeof abs) {
+            snprintf(why, why_bytes, "auth-key: %s/%s is longer than %d bytes", args->base_dir,
+                     c->auth_key, QMCD_PATH_BYTES - 1);
+            return -1;
+        }
+        memcpy(c->auth_key, abs, (size_t)len + 1);
+    }
     return 0;
 }
 

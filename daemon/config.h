@@ -54,6 +54,10 @@ typedef struct qmcd_args {
     const char *config_path;       /* NULL: no file */
     int argc;
     char **argv;                   /* the option words, re-parsed on reload */
+    const char *base_dir;          /* where relative auth-key paths start (the
+                                      directory qmcd started in: a daemon has
+                                      moved to "/" by the time SIGHUP re-reads
+                                      them), or NULL */
 } qmcd_args;
 
 void qmcd_config_defaults(qmcd_config *c);

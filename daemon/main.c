@@ -160,6 +160,9 @@ int main(int argc, char **argv)
         return rc > 0 ? 0 : 2;
     char why[512];
     qmcd_log_init();
+    static char base_dir[QMCD_PATH_BYTES]; /* read again on every SIGHUP */
+    if (getcwd(base_dir, sizeof base_dir))
+        srv.args.base_dir = base_dir;
     if (qmcd_config_load(&srv.args, &srv.cfg, why, sizeof why) != 0) {
         fprintf(stderr, "qmcd: %s\n", why);
         return 2;
@@ -201,8 +204,6 @@ int main(int argc, char **argv)
          * the ready file and the socket files we remove at exit must not
          * be relative any more. */
         int bad = absolutize(srv.cfg.ready_file, sizeof srv.cfg.ready_file);
-        if (!bad)
-            bad = absolutize(srv.cfg.auth_key, sizeof srv.cfg.auth_key);
         for (unsigned i = 0; i < srv.n_listeners && !bad; i++)
             bad = absolutize(srv.listeners[i].path, sizeof srv.listeners[i].path);
         if (!bad && srv.args.config_path) {
