@@ -4,10 +4,15 @@
 #ifndef QMCD_CONFIG_H
 #define QMCD_CONFIG_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define QMCD_MAX_LISTEN 16
 #define QMCD_PATH_BYTES 256
+/* A config file larger than this is refused (the example is ~4 KiB). */
+#define QMCD_CONFIG_MAX_BYTES (1 << 20)
+/* The file --check-config reads when no --config is given. */
+#define QMCD_DEFAULT_CONFIG "/etc/qmcd/qmcd.conf"
 
 /* Numeric settings: X(key, field, default, min, max, reloadable).  The key
  * is both the config-file key and the flag (--key). */
@@ -32,6 +37,7 @@
     X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
     X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
+    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \
     X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
     X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
     X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)
@@ -52,6 +58,7 @@ typedef struct qmcd_config {
  * (flags win over the file, on every load). */
 typedef struct qmcd_args {
     const char *config_path;       /* NULL: no file */
+    int check_only;                /* --check-config: validate and exit */
     int argc;
     char **argv;                   /* the option words, re-parsed on reload */
     const char *base_dir;          /* where relative auth-key paths start (the
@@ -79,6 +86,16 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
 /* Logs the settings that differ between old and fresh but need a restart,
  * and copies those from old into fresh (a reload never changes them). */
 void qmcd_config_keep_fixed(const qmcd_config *old, qmcd_config *fresh);
+
+/*
+ * Parses config text (len bytes, not necessarily NUL-terminated; name is
+ * the file name used in messages) over *c, which holds defaults or an
+ * earlier layer.  No I/O: the fuzz target calls it on raw bytes.  Returns
+ * 0, or -1 with one line ("NAME:LINE: problem") in why; *c may then hold
+ * the keys before the bad line.
+ */
+int qmcd_config_parse(const char *name, const char *text, size_t len, qmcd_config *c,
+                      char *why, size_t why_bytes);
 
 void qmcd_usage(void);
 

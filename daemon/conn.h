@@ -74,6 +74,8 @@ struct qmcd_conn {
     qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
     unsigned n_jobs;
     qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
+    uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
+    int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
     qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
                                     or NULL */
     qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE

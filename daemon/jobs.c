@@ -115,6 +115,12 @@ static int stop_cb(void *ctx)
     return must_stop(ctx);
 }
 
+/* Pool mutex held: only atomics. */
+static int task_must_stop(qmcd_pool_task *task)
+{
+    return atomic_load(&((qmcd_job *)task)->cancel) != CANCEL_NONE;
+}
+
 static int run_blocks(void *ctx, const qmc_sampling_job *sj, uint64_t first, uint64_t count,
                       qmc_sampling_sums *out)
 {
@@ -275,6 +281,7 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     j->conn = c;
     j->task.run = run_job;
     j->task.free_fn = task_free;
+    j->task.must_stop = task_must_stop;
     j->id = ++srv->next_job_id;
     j->request_id = m->request_id;
     j->progress_ms = g->progress_ms;
@@ -343,8 +350,41 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     qmcd_answered(c->srv, t0_us);
 }
 
+/* max-cancels-per-conn: a bucket of that many JOB_CANCELs, refilled at
+ * that many a minute.  Cancels are cheap, but they make INTEGRATE churn
+ * cheap too (build a job, cancel it, again): this bounds the churn rate
+ * per connection.  Tokens are kept in 1/60000ths so that the refill is
+ * exact in whole milliseconds.  Returns 1 when this cancel may go on. */
+static int cancel_allowed(qmcd_conn *c)
+{
+    const uint64_t cap = c->srv->cfg.max_cancels_per_conn;
+    const uint64_t full = cap * 60000u;
+    int64_t now = qmcd_now_ms();
+    if (c->cancel_refill_ms == 0) {
+        c->cancel_tokens = full;
+    } else if (now > c->cancel_refill_ms) {
+        uint64_t add = (uint64_t)(now - c->cancel_refill_ms) * cap;
+        c->cancel_tokens = full - c->cancel_tokens <= add ? full : c->cancel_tokens + add;
+    }
+    if (c->cancel_tokens > full) /* the limit shrank on SIGHUP */
+        c->cancel_tokens = full;
+    c->cancel_refill_ms = now;
+    if (c->cancel_tokens < 60000u)
+        return 0;
+    c->cancel_tokens -= 60000u;
+    return 1;
+}
+
 void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
+    if (!cancel_allowed(c)) {
+        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                        "max-cancels-per-conn: more than %llu JOB_CANCEL a minute on this "
+                        "connection; cancel less often",
+                        (unsigned long long)c->srv->cfg.max_cancels_per_conn);
+        qmcd_answered(c->srv, t0_us);
+        return;
+    }
     qmcd_job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);
@@ -357,6 +397,8 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
              * answered ERROR ECANCELED when it stops. */
             job_state_msg(j, m->request_id, &r);
             r.u.state.state = QMC_JOB_CANCELLED;
+            if (atomic_load(&j->start_ms) == 0)
+                qmcd_pool_cancelled(c->srv->pool); /* queued: start it to answer */
         } else {
             job_state_msg(j, m->request_id, &r);
         }
@@ -485,6 +527,7 @@ void qmcd_jobs_tick(qmcd_conn *c, int64_t now)
 
 void qmcd_jobs_drop_all(qmcd_conn *c)
 {
+    int queued = 0;
     qmcd_pool_tenant_release(c->srv->pool, c->tenant);
     c->tenant = NULL;
     while (c->jobs) {
@@ -495,8 +538,12 @@ void qmcd_jobs_drop_all(qmcd_conn *c)
          * cancelled, so STATS counts it here (jobs_accepted = done +
          * failed + cancelled + dropped once none is open). */
         c->srv->stats.jobs_dropped++;
+        if (!j->finished)
+            queued |= atomic_load(&j->start_ms) == 0;
         detach(j);
     }
+    if (queued)
+        qmcd_pool_cancelled(c->srv->pool); /* let them end now, not in turn */
 }
 
 void qmcd_jobs_cancel_all(qmcd_server *srv)
@@ -506,4 +553,5 @@ void qmcd_jobs_cancel_all(qmcd_server *srv)
             int none = CANCEL_NONE;
             atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_SHUTDOWN);
         }
+    qmcd_pool_cancelled(srv->pool);
 }

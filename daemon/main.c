@@ -60,12 +60,18 @@ static int qmcd_main_reload_key(qmcd_server *srv, const qmcd_config *fresh, char
 void qmcd_main_reload(qmcd_server *srv)
 {
     qmcd_config fresh;
-    char why[512];
-    qmcd_main_notify(srv, "RELOADING=1");
+    char why[512], status[600];
+    /* MONOTONIC_USEC lets a systemd with Type=notify-reload match this
+     * RELOADING=1 to the signal it sent; older ones ignore it. */
+    snprintf(status, sizeof status, "RELOADING=1\nMONOTONIC_USEC=%llu",
+             (unsigned long long)qmcd_now_us());
+    qmcd_main_notify(srv, status);
     if (qmcd_config_load(&srv->args, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration: %s", why);
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
     } else if (qmcd_main_reload_key(srv, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration and key: %s", why);
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
@@ -73,8 +79,9 @@ void qmcd_main_reload(qmcd_server *srv)
         srv->stats.reloads++;
         qmcd_notice("configuration reloaded%s%s", srv->args.config_path ? " from " : "",
                     srv->args.config_path ? srv->args.config_path : "");
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; configuration reloaded");
     }
-    qmcd_main_notify(srv, "READY=1");
+    qmcd_main_notify(srv, status);
 }
 
 /* Writes the bound addresses, one per line, to path via a rename so that a
@@ -167,6 +174,25 @@ int main(int argc, char **argv)
         fprintf(stderr, "qmcd: %s\n", why);
         return 2;
     }
+    if (srv.args.check_only) {
+        /* The key file's rule (mode, size) is checked too; whether a TCP
+         * listener is off loopback is only known once it is resolved, at
+         * start. */
+        qmcd_auth *a = NULL;
+        const char *problem = NULL;
+        if (qmcd_auth_new(&a) != 0)
+            problem = "cannot initialise libsodium";
+        else if (qmcd_auth_load_key(a, &srv.cfg, why, sizeof why) != 0)
+            problem = why;
+        qmcd_auth_free(a);
+        if (problem) {
+            fprintf(stderr, "qmcd: %s\n", problem);
+            return 2;
+        }
+        printf("qmcd: %s: configuration is valid\n",
+               srv.args.config_path ? srv.args.config_path : QMCD_DEFAULT_CONFIG);
+        return 0;
+    }
     qmcd_log_set_level(srv.cfg.log_level);
     /* Signals are read from a signalfd: block them before any thread
      * exists so every worker inherits the mask. */
@@ -196,6 +222,13 @@ int main(int argc, char **argv)
         free(srv.listeners);
         qmcd_auth_free(srv.auth);
         return 1;
+    }
+    /* Under systemd (a notify socket is given) qmcd never forks: the unit
+     * tracks the process it started, and a forked child's notifications
+     * would come from a PID that NotifyAccess=main ignores. */
+    if (!srv.cfg.foreground && getenv("NOTIFY_SOCKET")) {
+        qmcd_info("NOTIFY_SOCKET is set: staying in the foreground");
+        srv.cfg.foreground = 1;
     }
     int ready_fd = -1;
     static char config_abs[QMCD_PATH_BYTES]; /* outlives main's frame use */

@@ -12,7 +12,10 @@
  * on at the interrupt hook once it has held it for QUANTUM_MS and someone
  * waits).  Within a tenant, its batches take turns too.
  *
- * Jobs are driven by runner threads (RUNNERS_PER_WORKER per worker): a
+ * Jobs are driven by runner threads (twice the workers, at least workers
+ * + RUNNERS_SPARE, so that several tenants can each fill the slots and a
+ * newcomer still finds one free; not more, since each is a task under
+ * the unit's TasksMax and each running job holds its memory): a
  * runner calls qmc_job_run, which hands its blocks to the pool through
  * qmcd_pool_run_blocks and waits for them without a slot.  A tenant may
  * have as many jobs on runners as there are workers (enough to fill every
@@ -43,7 +46,10 @@
 /* How long a job that runs no blocks keeps its slot when others wait: a
  * few block times, so hand-overs cost nothing measurable. */
 #define QUANTUM_MS 20
-#define RUNNERS_PER_WORKER 4
+#define RUNNERS_SPARE 8
+/* A worker keeps its block workspace between blocks (one allocation per
+ * job, not per block), but not one this large while it idles. */
+#define WORKSPACE_KEEP_BYTES (1u << 20)
 
 typedef struct batch batch;
 
@@ -222,11 +228,19 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
         return NULL;
     qmcd_pool_tenant *t = first;
     do {
-        qmcd_pool_task *task = t->queue_head;
-        if (task && t->running < pool->tenant_running_max) {
-            t->queue_head = task->next;
-            if (!t->queue_head)
-                t->queue_tail = NULL;
+        /* A cancelled task goes past the tenant's limit: it only has to
+         * notice, and its answer should not wait for the tenant's running
+         * jobs to end. */
+        qmcd_pool_task **link = &t->queue_head, *prev = NULL;
+        while (*link && !(*link)->must_stop((*link)))
+            prev = *link, link = &(*link)->next;
+        if (!*link && t->running < pool->tenant_running_max)
+            link = &t->queue_head, prev = NULL;
+        qmcd_pool_task *task = *link;
+        if (task) {
+            *link = task->next;
+            if (t->queue_tail == task)
+                t->queue_tail = prev;
             task->next = NULL;
             t->running++;
             pool->rr_admit = t->next;
@@ -285,6 +299,11 @@ static void *worker(void *arg)
     while (!pool->stop) {
         pick p;
         if (pool->slots_free == 0 || !pick_work(pool, &p)) {
+            if (ws_bytes > WORKSPACE_KEEP_BYTES) { /* idle: give a big one back */
+                free(ws);
+                ws = NULL;
+                ws_bytes = 0;
+            }
             pthread_cond_wait(&pool->work_cv, &pool->mu);
             continue;
         }
@@ -450,6 +469,13 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task *task
     pthread_mutex_unlock(&pool->mu);
 }
 
+void qmcd_pool_cancelled(qmcd_pool *pool)
+{
+    pthread_mutex_lock(&pool->mu);
+    pthread_cond_broadcast(&pool->runner_cv);
+    pthread_mutex_unlock(&pool->mu);
+}
+
 qmcd_pool_task *qmcd_pool_take_done(qmcd_pool *pool)
 {
     pthread_mutex_lock(&pool->mu);
@@ -468,7 +494,7 @@ int qmcd_pool_new(unsigned workers, qmcd_pool **out)
     if (!pool)
         return -ENOMEM;
     pool->n_workers = workers;
-    pool->n_runners = workers * RUNNERS_PER_WORKER;
+    pool->n_runners = workers + (workers > RUNNERS_SPARE ? workers : RUNNERS_SPARE);
     pool->slots_free = workers;
     pool->tenant_running_max = workers;
     pool->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);

@@ -19,6 +19,7 @@ typedef struct qmcd_pool_task qmcd_pool_task;
 struct qmcd_pool_task {
     void (*run)(qmcd_pool_task *task);      /* on a runner, holding a slot */
     void (*free_fn)(qmcd_pool_task *task);  /* pool_free: a done task left over */
+    int (*must_stop)(qmcd_pool_task *task); /* cancelled: starts past the limits */
     qmcd_pool_task *next;                   /* pool mutex: queue or done list */
     qmcd_pool_tenant *tenant;
     qmcd_pool *pool;
@@ -41,6 +42,10 @@ void qmcd_pool_tenant_release(qmcd_pool *pool, qmcd_pool_tenant *tenant);
 
 /* Queues a task of the tenant.  Loop thread. */
 void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *tenant, qmcd_pool_task *task);
+
+/* Some queued task's must_stop turned true: a free runner starts it now,
+ * past its tenant's limit, so that its answer does not wait.  Loop thread. */
+void qmcd_pool_cancelled(qmcd_pool *pool);
 
 /* Takes the list of finished tasks (linked by next).  Loop thread. */
 qmcd_pool_task *qmcd_pool_take_done(qmcd_pool *pool);

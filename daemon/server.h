@@ -42,6 +42,7 @@ struct qmcd_server {
     uint64_t out_over_bytes;   /* output buffers beyond their floors (conn.c) */
     unsigned n_out_waiting;    /* connections whose streams wait for them */
     int out_wake;              /* some came free: wake the waiters */
+    int shm_seal_probe;        /* ring.c: 1 sealed memfds resist punching, -1 not, 0 untried */
     int64_t refusal_log_ms;    /* last refusal logged (one line a second) */
     uint64_t refusals_unlogged;
     uint64_t sobol_table_hash;  /* computed once: it hashes the whole table */
@@ -54,6 +55,8 @@ struct qmcd_server {
     int64_t drain_deadline_ms; /* then cancel what still runs */
     int jobs_cancelled_for_exit;
     int quit;                  /* leave the loop */
+    int64_t watchdog_ms;       /* WATCHDOG=1 this often from the tick; 0: off */
+    int64_t watchdog_next_ms;
 };
 
 /* CLOCK_MONOTONIC in milliseconds and microseconds. */

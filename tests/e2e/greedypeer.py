@@ -18,7 +18,10 @@ No wall-clock thresholds: order and state only ("the small job finished
 while the big ones still ran").  Every wait is bounded by a socket timeout
 and every loop by a count.
 """
+import ctypes
+import errno
 import fcntl
+import mmap
 import os
 import resource
 import socket
@@ -359,12 +362,156 @@ def sc_starve(addr):
               qmcpeer.same(res["estimate"], alone["estimate"]) and
               qmcpeer.same(res["error"], alone["error"]),
               "%r vs %r" % (res["estimate"], alone["estimate"]))
+        # A queued job cancelled is answered at once, not after the
+        # connection's running jobs end.
+        rid = g.rid()
+        g.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", ids[-1])))
+        answer = None
+        for _ in range(1000):
+            t, r, d = g.recv()
+            if t == "ERROR" and d["code"] == qmcpeer.ECANCELED:
+                answer = d
+                break
+        still = job_states(g, ids[:-1])
+        check("%s: a queued job cancelled is answered ECANCELED while the others still "
+              "run or wait (%s)" % (method, ",".join(still)),
+              answer is not None and all(st in ("running", "queued") for st in still))
         q.close()
         g.close()  # its jobs are cancelled (the connection is gone)
         serves_correctly(addr, "%s: after 8 endless jobs" % method)
 
 
-SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve)
+def sc_quota(addr, jobs_per_conn, cancels_per_conn):
+    """Past max-jobs-per-conn an INTEGRATE, and past max-cancels-per-conn a
+    JOB_CANCEL, is refused with an ERROR naming the limit; the connection
+    stays usable and the daemon serves others."""
+    jobs_per_conn, cancels_per_conn = int(jobs_per_conn), int(cancels_per_conn)
+    g = Peer(addr, timeout=30.0)
+    ids, ids_rids = [], set()
+    for _ in range(jobs_per_conn):
+        rid = g.rid()
+        g.send(g.integrate_frame(rid, **huge_job("rqmc")))
+        t, r, d = g.recv()
+        ids.append(d.get("job_id") if t == "JOB_ACCEPTED" else None)
+        ids_rids.add(rid)
+    rid = g.rid()
+    g.send(g.integrate_frame(rid, **huge_job("rqmc")))
+    t, r, d = g.recv()
+    check("max-jobs-per-conn %d: the next INTEGRATE gets ERROR naming the limit"
+          % jobs_per_conn, None not in ids and t == "ERROR" and r == rid and
+          d["code"] == QMC_ETOOBIG and "max-jobs-per-conn" in d["message"], repr((t, d)))
+    # Cancels: the bucket holds cancels_per_conn; the next is refused.
+    # (A cancelled job's own ERROR ECANCELED, for its INTEGRATE's id, may
+    # come between: each cancel's answer is the frame with its id.)
+    answers = []
+    for k in range(cancels_per_conn + 1):
+        rid = g.rid()
+        g.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", ids[k % len(ids)])))
+        for _ in range(100):
+            t, r, d = g.recv()
+            if r == rid or r not in ids_rids:
+                break
+        answers.append((t, r == rid, d))
+    firsts = all(t == "JOB_STATE" and same for t, same, _ in answers[:-1])
+    t, same, d = answers[-1]
+    check("max-cancels-per-conn %d: %d cancels answered, the next gets ERROR naming the "
+          "limit" % (cancels_per_conn, cancels_per_conn),
+          firsts and t == "ERROR" and same and d["code"] == QMC_ETOOBIG and
+          "max-cancels-per-conn" in d["message"], repr(answers[-2:]))
+    # (The cancelled jobs' ERROR ECANCELED answers may come first.)
+    rid = g.rid()
+    g.send(g.ping_frame(rid))
+    pong = False
+    for _ in range(100):
+        f = g.recv()
+        if f is None or f[1] == rid:
+            pong = f is not None and f[0] == "PONG"
+            break
+    check("quotas: the refused connection still answers PING", pong)
+    serves_correctly(addr, "quotas refused")
+    g.close()
+
+
+def rss_shmem_kb(pid):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith("RssShmem:"):
+                return int(line.split()[1])
+    return -1
+
+
+def punch_hole(fd, length):
+    """fallocate(FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE): 0 or -errno."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_long, ctypes.c_long]
+    if libc.fallocate(fd, 3, 0, length) == 0:
+        return 0
+    return -ctypes.get_errno()
+
+
+def sc_punch(addr, pid, ring_mb="16"):
+    """After SHM_OK the client tries to give its ring's pages back to the
+    kernel (fallocate PUNCH_HOLE, and MADV_REMOVE through a writable mapping
+    it made before attaching), so that the daemon's writes would allocate
+    them again, charged to the daemon: both must fail, and streaming the
+    whole ring must leave the memfd's allocated blocks unchanged."""
+    pid = int(pid)
+    slots, slot_bytes = int(ring_mb), 1 << 20
+    size = slots * slot_bytes
+    p = Peer(addr, version=2, timeout=20.0)
+    fd, ro = qmcpeer.make_ring(slots, slot_bytes)
+    rw = mmap.mmap(fd, size, mmap.MAP_SHARED, mmap.PROT_READ | mmap.PROT_WRITE)
+    t, r, d = p.attach(fd, slots, slot_bytes, ring=ro)
+    check("punch: SHM_ATTACH of a %d MiB ring answered SHM_OK" % (size >> 20), t == "SHM_OK",
+          repr((t, d)))
+    shmem0 = rss_shmem_kb(pid)
+    blocks0 = os.fstat(fd).st_blocks
+    seals = fcntl.fcntl(fd, fcntl.F_GET_SEALS)
+    rc = punch_hole(fd, size)
+    try:
+        rw.madvise(mmap.MADV_REMOVE)
+        madv = 0
+    except OSError as e:
+        madv = -e.errno
+    blocks1 = os.fstat(fd).st_blocks
+    print("# seals after SHM_OK 0x%x; punch %d, MADV_REMOVE %d; blocks %d -> %d; daemon "
+          "RssShmem %d kB -> %d kB" % (seals, rc, madv, blocks0, blocks1, shmem0,
+                                      rss_shmem_kb(pid)))
+    check("punch: fallocate(PUNCH_HOLE) on the attached ring is refused (%d)" % rc,
+          rc == -errno.EPERM)
+    check("punch: MADV_REMOVE through a writable mapping made before attaching is "
+          "refused (%d)" % madv, madv == -errno.EPERM)
+    # Stream twice the ring through it: every slot written, twice.
+    data, end, chunks = p.points_shm(kind="sobol", dims=2, count=2 * size // 16)
+    got = struct.unpack_from("<%dd" % 128, data)
+    want = []
+    for i in range(64):
+        want += [radical_inverse2(i), sobol_index_dim2(i)]
+    blocks2 = os.fstat(fd).st_blocks
+    shmem1 = rss_shmem_kb(pid)
+    print("# memfd blocks %d -> %d after %d chunks; daemon RssShmem %d kB -> %d kB"
+          % (blocks0, blocks2, chunks, shmem0, shmem1))
+    check("punch: the ring streamed %d chunks, points = closed form" % chunks,
+          end is not None and list(got) == want)
+    check("punch: the memfd's pages are the client's own, never reallocated by the "
+          "daemon's writes (blocks %d -> %d -> %d)" % (blocks0, blocks1, blocks2),
+          blocks1 == blocks0 and blocks2 == blocks0)
+    p.close()
+    os.close(fd)
+    # A memfd sealed with F_SEAL_SEAL cannot get F_SEAL_FUTURE_WRITE from
+    # the server: refused, with the reason.
+    q = Peer(addr, version=2, timeout=20.0)
+    fd, _ = qmcpeer.make_ring(2, 64 << 10)
+    fcntl.fcntl(fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SEAL)
+    qmcpeer.refused(q, fd, 2, 64 << 10, "sealed with F_SEAL_SEAL", qmcpeer.QMC_EINVAL,
+                    "F_SEAL_SEAL")
+    os.close(fd)
+    check("punch: the refused connection still answers PING", q.ping())
+    q.close()
+    serves_correctly(addr, "after the hole punching")
+
+
+SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve, quota=sc_quota, punch=sc_punch)
 
 if __name__ == "__main__":
     sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "greedypeer.py"))

@@ -95,6 +95,21 @@ start starve --threads 2 --max-job-evals 1099511627776 || exit 1
 greedy starve "$U"
 stop "$pid"
 
+# 4. Quotas: jobs in flight and cancels, per connection.
+start quota --threads 1 --max-jobs-per-conn 3 --max-cancels-per-conn 4 \
+    --max-job-evals 1099511627776 || exit 1
+greedy quota "$U" 3 4
+stop "$pid"
+
+# 5. Shared memory: after SHM_OK the client punches holes in its ring (and
+# tries MADV_REMOVE), so that the daemon's writes would allocate the pages
+# again, charged to the daemon.  Before the seal: a 64 MiB ring went
+# RssShmem 64 MiB -> 0 -> 64 MiB (allocated anew by the daemon).  Now both
+# fail with EPERM and the memfd's blocks never change.
+start punch || exit 1
+greedy punch "$U" "$pid" 16
+stop "$pid"
+
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
