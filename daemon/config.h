@@ -9,6 +9,7 @@
 
 #define QMCD_MAX_LISTEN 16
 #define QMCD_PATH_BYTES 256
+#define QMCD_MODBUS_ALLOW_BYTES 2048
 /* A config file larger than this is refused (the example is ~4 KiB). */
 #define QMCD_CONFIG_MAX_BYTES (1 << 20)
 /* The file --check-config reads when no --config is given. */
@@ -40,7 +41,10 @@
     X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \
     X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
     X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
-    X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)
+    X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)\
+    X("modbus-max-connections", modbus_max_connections, 256, 1, 1u << 16, 1)   \
+    X("modbus-frame-timeout-ms", modbus_frame_timeout_ms, 5000, 50, 3600000, 1) \
+    X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;
@@ -52,6 +56,11 @@ typedef struct qmcd_config {
     char auth_key[QMCD_PATH_BYTES];  /* key file (auth.c), "" for none; reloadable */
     char listen[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
     unsigned n_listen;
+    /* Modbus transports (daemon/modbus*.c): tcp:HOST:PORT or rtu:...; and
+     * the clients allowed in, as the `modbus-allow` text (validated). */
+    char modbus[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
+    unsigned n_modbus;
+    char modbus_allow[QMCD_MODBUS_ALLOW_BYTES];
 } qmcd_config;
 
 /* Flags as given, kept so SIGHUP can re-apply them over the re-read file

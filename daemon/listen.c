@@ -236,7 +236,12 @@ static int split_host_port(const char *spec, char *host, size_t hn, char *port, 
     "could use the daemon; see docs/SECURITY.md); use tcp:127.0.0.1:PORT or tcp::PORT " \
     "for this host only"
 
-static int open_tcp(const char *spec, qmcd_listener *l, int have_key, char *why, size_t n)
+/* key_rule: a qmcd listener (the key rule above applies, and tcp::PORT is
+ * loopback); 0 for the Modbus listeners, which share the socket code but
+ * not the rule - Modbus has no authentication, and modbus-allow
+ * (modbus_tcp.c) guards them instead. */
+static int open_tcp(const char *spec, qmcd_listener *l, int key_rule, int have_key, char *why,
+                    size_t n)
 {
     char host[256], port[32];
     if (split_host_port(spec, host, sizeof host, port, sizeof port) != 0) {
@@ -244,16 +249,17 @@ static int open_tcp(const char *spec, qmcd_listener *l, int have_key, char *why,
         return -1;
     }
     /* tcp::PORT is loopback: every interface has to be asked for by
-     * name (tcp:0.0.0.0:PORT, tcp:[::]:PORT), and then needs a key. */
+     * name (tcp:0.0.0.0:PORT, tcp:[::]:PORT), and then needs a key.  (The
+     * Modbus listeners keep getaddrinfo's passive default.) */
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM,
-                             .ai_flags = AI_NUMERICSERV};
+                             .ai_flags = (key_rule ? 0 : AI_PASSIVE) | AI_NUMERICSERV};
     struct addrinfo *res = NULL;
-    int gai = getaddrinfo(host[0] ? host : "127.0.0.1", port, &hints, &res);
+    int gai = getaddrinfo(host[0] ? host : key_rule ? "127.0.0.1" : NULL, port, &hints, &res);
     if (gai != 0) {
         snprintf(why, n, "tcp:%s: %s", spec, gai_strerror(gai));
         return -1;
     }
-    l->needs_key = !qmcd_auth_is_loopback(res->ai_addr);
+    l->needs_key = key_rule && !qmcd_auth_is_loopback(res->ai_addr);
     if (l->needs_key && !have_key) {
         snprintf(why, n, "tcp:%s: %s", spec, NEEDS_KEY_WHY);
         freeaddrinfo(res);
@@ -281,6 +287,11 @@ static int open_tcp(const char *spec, qmcd_listener *l, int have_key, char *why,
     l->path[0] = '\0';
     name_of(fd, l->name, sizeof l->name);
     return 0;
+}
+
+int qmcd_listen_tcp(const char *hostport, qmcd_listener *l, char *why, size_t why_bytes)
+{
+    return open_tcp(hostport, l, 0, 0, why, why_bytes);
 }
 
 static const char *default_socket(char *buf, size_t n)
@@ -353,7 +364,7 @@ int qmcd_listeners_open(qmcd_server *srv, char *why, size_t why_bytes)
         else if (strncmp(spec, "unix:", 5) == 0)
             rc = open_unix(spec + 5, l, why, why_bytes);
         else
-            rc = open_tcp(spec + 4, l, qmcd_auth_has_key(srv->auth), why, why_bytes);
+            rc = open_tcp(spec + 4, l, 1, qmcd_auth_has_key(srv->auth), why, why_bytes);
         if (rc != 0)
             goto fail;
         srv->n_listeners++;

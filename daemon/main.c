@@ -31,6 +31,7 @@
 #include "loop.h"
 #include "main.h"
 #include "peers.h"
+#include "modbus_bridge.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -96,6 +97,7 @@ static int write_ready_file(const qmcd_server *srv, const char *path)
     fprintf(f, "pid %ld\n", (long)getpid());
     for (unsigned i = 0; i < srv->n_listeners; i++)
         fprintf(f, "%s\n", srv->listeners[i].name);
+    qmcd_modbus_write_names(srv, f);
     if (fclose(f) != 0 || rename(tmp, path) != 0) {
         unlink(tmp);
         return -1;
@@ -223,6 +225,13 @@ int main(int argc, char **argv)
         qmcd_auth_free(srv.auth);
         return 1;
     }
+    if (qmcd_modbus_open(&srv, why, sizeof why) != 0) {
+        fprintf(stderr, "qmcd: %s\n", why);
+        qmcd_listeners_close(&srv);
+        free(srv.listeners);
+        qmcd_auth_free(srv.auth);
+        return 1;
+    }
     /* Under systemd (a notify socket is given) qmcd never forks: the unit
      * tracks the process it started, and a forked child's notifications
      * would come from a PID that NotifyAccess=main ignores. */
@@ -250,6 +259,7 @@ int main(int argc, char **argv)
         }
         if (bad) {
             fprintf(stderr, "qmcd: a path is too long to make absolute before detaching\n");
+            qmcd_modbus_close(&srv);
             qmcd_listeners_close(&srv);
             return 1;
         }
@@ -267,6 +277,8 @@ int main(int argc, char **argv)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
+    if (!err) /* after the fork: the serial threads start here */
+        err = qmcd_modbus_start(&srv);
     if (err) {
         qmcd_err("cannot start: %s", strerror(-err));
         rc = 1;
@@ -296,6 +308,7 @@ out:
     while (srv.conns)
         qmcd_conn_close(srv.conns, "exiting");
     qmcd_conns_reap(&srv);
+    qmcd_modbus_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
     qmcd_peers_free(srv.peers);
