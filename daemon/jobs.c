@@ -252,7 +252,7 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
                         (unsigned long long)srv->cfg.max_jobs);
         return;
     }
-    if (!c->tenant && qmcd_pool_tenant_new(srv->pool, &c->tenant) != 0) {
+    if (!c->tenant && qmcd_pool_tenant_new(srv->pool, &c->peer_key, &c->tenant) != 0) {
         qmcd_conn_error(c, m->request_id, QMC_ENOMEM, "out of memory");
         return;
     }

@@ -30,8 +30,8 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
-#include "peers.h"
 #include "modbus_bridge.h"
+#include "peers.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)

@@ -21,7 +21,10 @@
  * have as many jobs on runners as there are workers (enough to fill every
  * slot by itself when alone); further jobs of it wait, and runners are
  * given to tenants in turn too, so a newcomer's job starts as soon as a
- * runner is free even while another tenant has a long queue.
+ * runner is free even while another tenant has a long queue.  The tenants
+ * of one peer (one address, one uid: peers.h) hold at most all runners but
+ * `workers`, so that a peer with many connections leaves runners free for
+ * every other peer.
  *
  * Determinism: a block's sums depend only on (job, block index) and are
  * written to out[i]; qmc_sampling_finish combines them in block order.  So
@@ -68,8 +71,19 @@ struct batch {
     atomic_uint_fast64_t *evals;
 };
 
+/* The tenants of one peer (peers.h: an address, or a uid): they share a
+ * cap on runners, so that a peer opening many connections cannot take
+ * every runner from the other peers. */
+typedef struct peer_group {
+    struct peer_group *next;
+    qmcd_peer_key key;
+    unsigned refs;                        /* tenants */
+    unsigned running;                     /* their tasks on runners */
+} peer_group;
+
 struct qmcd_pool_tenant {
     qmcd_pool_tenant *next, *prev;        /* the ring of tenants */
+    peer_group *group;
     qmcd_pool_task *queue_head, *queue_tail; /* submitted, not yet on a runner */
     qmcd_pool_task *wait_head, *wait_tail;   /* runners waiting for a slot */
     batch *batches;
@@ -87,6 +101,8 @@ struct qmcd_pool {
     unsigned n_threads, n_workers, n_runners;
     unsigned slots_free;
     unsigned tenant_running_max;
+    unsigned peer_running_max;   /* runners one peer's tenants may hold */
+    peer_group *groups;
     qmcd_pool_tenant *rr_compute; /* ring cursor: who gets the next slot */
     qmcd_pool_tenant *rr_admit;   /* ring cursor: who gets the next runner */
     qmcd_pool_task *done;
@@ -131,6 +147,15 @@ static void tenant_unref(qmcd_pool *pool, qmcd_pool_tenant *t)
     if (--t->refs)
         return;
     ring_remove(pool, t);
+    peer_group *g = t->group;
+    if (--g->refs == 0) {
+        for (peer_group **link = &pool->groups; *link; link = &(*link)->next)
+            if (*link == g) {
+                *link = g->next;
+                break;
+            }
+        free(g);
+    }
     free(t);
 }
 
@@ -234,7 +259,8 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
         qmcd_pool_task **link = &t->queue_head, *prev = NULL;
         while (*link && !(*link)->must_stop((*link)))
             prev = *link, link = &(*link)->next;
-        if (!*link && t->running < pool->tenant_running_max)
+        if (!*link && t->running < pool->tenant_running_max &&
+            t->group->running < pool->peer_running_max)
             link = &t->queue_head, prev = NULL;
         qmcd_pool_task *task = *link;
         if (task) {
@@ -243,6 +269,7 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
                 t->queue_tail = prev;
             task->next = NULL;
             t->running++;
+            t->group->running++;
             pool->rr_admit = t->next;
             return task;
         }
@@ -352,6 +379,7 @@ static void *runner(void *arg)
         release_slot(pool);
         qmcd_pool_tenant *t = task->tenant;
         t->running--;
+        t->group->running--;
         task->next = pool->done;
         pool->done = task;
         tenant_unref(pool, t);
@@ -431,15 +459,34 @@ void qmcd_pool_yield(qmcd_pool_task *task)
 
 /* ---- the loop side ---------------------------------------------------------------- */
 
-int qmcd_pool_tenant_new(qmcd_pool *pool, qmcd_pool_tenant **out)
+int qmcd_pool_tenant_new(qmcd_pool *pool, const qmcd_peer_key *peer, qmcd_pool_tenant **out)
 {
-    *out = calloc(1, sizeof **out);
-    if (!*out)
+    qmcd_pool_tenant *t = calloc(1, sizeof *t);
+    peer_group *fresh = calloc(1, sizeof *fresh);
+    *out = NULL;
+    if (!t || !fresh) {
+        free(t);
+        free(fresh);
         return -ENOMEM;
-    (*out)->refs = 1;
+    }
+    t->refs = 1;
     pthread_mutex_lock(&pool->mu);
-    ring_insert(pool, *out);
+    peer_group *g = pool->groups;
+    while (g && memcmp(&g->key, peer, sizeof *peer) != 0)
+        g = g->next;
+    if (!g) {
+        g = fresh;
+        fresh = NULL;
+        g->key = *peer;
+        g->next = pool->groups;
+        pool->groups = g;
+    }
+    g->refs++;
+    t->group = g;
+    ring_insert(pool, t);
     pthread_mutex_unlock(&pool->mu);
+    free(fresh);
+    *out = t;
     return 0;
 }
 
@@ -497,6 +544,9 @@ int qmcd_pool_new(unsigned workers, qmcd_pool **out)
     pool->n_runners = workers + (workers > RUNNERS_SPARE ? workers : RUNNERS_SPARE);
     pool->slots_free = workers;
     pool->tenant_running_max = workers;
+    /* One peer may hold every runner but `workers` of them: another peer's
+     * job always finds one, however many connections the first opens. */
+    pool->peer_running_max = pool->n_runners - workers;
     pool->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     pool->threads = calloc(pool->n_workers + pool->n_runners, sizeof *pool->threads);
     if (pool->efd < 0 || !pool->threads) {

@@ -8,6 +8,7 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
+#include "peers.h"
 #include "qmc/sampling.h"
 #include "server.h"
 
@@ -35,9 +36,10 @@ int qmcd_pool_eventfd(const qmcd_pool *pool);
  * them be and frees nothing they use. */
 void qmcd_pool_free(qmcd_pool *pool, int jobs_running);
 
-/* A connection's share of the pool.  Loop thread.  The tenant lives until
- * the connection released it and its last task is done. */
-int qmcd_pool_tenant_new(qmcd_pool *pool, qmcd_pool_tenant **out);
+/* A connection's share of the pool, counted with the other connections of
+ * its peer.  Loop thread.  The tenant lives until the connection released
+ * it and its last task is done. */
+int qmcd_pool_tenant_new(qmcd_pool *pool, const qmcd_peer_key *peer, qmcd_pool_tenant **out);
 void qmcd_pool_tenant_release(qmcd_pool *pool, qmcd_pool_tenant *tenant);
 
 /* Queues a task of the tenant.  Loop thread. */

@@ -511,7 +511,68 @@ def sc_punch(addr, pid, ring_mb="16"):
     serves_correctly(addr, "after the hole punching")
 
 
-SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve, quota=sc_quota, punch=sc_punch)
+class TcpPeer(Peer):
+    """A Peer whose TCP connection comes from source address `source`."""
+
+    def __init__(self, addr, source, timeout=60.0):
+        host, port = addr[4:].rsplit(":", 1)
+        self.s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self.s.settimeout(timeout)
+        self.s.bind((source, 0))
+        self.s.connect((host, int(port)))
+        self.buf = bytearray()
+        self.next_id = 100
+        self.ring = None
+        self.info = self.hello()
+
+
+def sc_starve_peers(tcp_addr, conns):
+    """One peer (127.0.0.2) opens `conns` connections, each with two endless
+    jobs, enough to take every runner if it could: it holds all but
+    `threads` of them, and a job from 127.0.0.1 still finishes while all of
+    the greedy ones run or wait."""
+    conns = int(conns)
+    greedy, ids = [], []
+    for _ in range(conns):
+        g = TcpPeer(tcp_addr, GREEDY_HOST)
+        mine = []
+        for _ in range(2):
+            rid = g.rid()
+            g.send(g.integrate_frame(rid, **huge_job("rqmc")))
+            t, r, d = g.recv()
+            if t != "JOB_ACCEPTED":
+                raise ValueError("huge job answered %s %r" % (t, d))
+            mine.append(d["job_id"])
+        greedy.append(g)
+        ids.append(mine)
+
+    def states():
+        return [st for g, mine in zip(greedy, ids) for st in job_states(g, mine)]
+
+    for _ in range(400):
+        before = states()
+        if before.count("running") >= 2:
+            break
+        time.sleep(0.05)
+    q = TcpPeer(tcp_addr, "127.0.0.1")
+    res = tiny_result(q)
+    after = states()
+    print("# %d connections from %s: %d jobs running, %d queued; a 127.0.0.1 job "
+          "finished meanwhile" % (conns, GREEDY_HOST, after.count("running"),
+                                  after.count("queued")))
+    check("one peer with %d connections x 2 endless jobs: a job from another peer "
+          "finished while all %d still ran or waited" % (conns, len(after)),
+          all(st in ("running", "queued") for st in after) and
+          res["error"] > 0 and abs(res["estimate"] - 1 / 6) <= 6 * res["error"],
+          repr(after))
+    q.close()
+    for g in greedy:
+        g.close()
+    serves_correctly(tcp_addr, "after one peer's %d greedy connections" % conns)
+
+
+SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve, quota=sc_quota, punch=sc_punch,
+                 starve_peers=sc_starve_peers)
 
 if __name__ == "__main__":
     sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "greedypeer.py"))

@@ -93,6 +93,9 @@ stop "$pid"
 # socket timeout.)  max-job-evals is raised so the 8 never end by budget.
 start starve --threads 2 --max-job-evals 1099511627776 || exit 1
 greedy starve "$U"
+# One peer with 6 connections x 2 such jobs would take all 10 runners; it
+# gets all but 2 (threads), and 127.0.0.1's job still runs and finishes.
+greedy starve_peers "$T" 6
 stop "$pid"
 
 # 4. Quotas: jobs in flight and cancels, per connection.
