@@ -41,7 +41,7 @@
     X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)         \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
     X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
-    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)\
+    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \
     X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
     X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
     X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)
