@@ -29,6 +29,9 @@
     X(jobs_cancelled, "jobs_cancelled")                     \
     X(jobs_timed_out, "jobs_timed_out")                     \
     X(reloads, "config_reloads")                            \
+    X(jobs_dropped, "jobs_dropped")                         \
+    X(auth_failures, "auth_failures")                       \
+    X(auth_lockouts, "auth_lockouts")                       \
     X(peer_conn_refusals, "refused_connections_per_peer")   \
     X(out_waits, "out_buffer_waits")                        \
     X(jobs_conn_refusals, "refused_jobs_per_conn")          \
