@@ -598,6 +598,13 @@ def sc_starve_peers(tcp_addr, conns):
     serves_correctly(tcp_addr, "after one peer's %d greedy connections" % conns)
 
 
+def rss_parts(pid):
+    """VmRSS's parts and the thread count, for a failure's message."""
+    with open("/proc/%d/status" % pid) as f:
+        return " ".join(line.split(":")[0] + "=" + line.split()[1] for line in f
+                        if line.split(":")[0] in ("RssAnon", "RssFile", "RssShmem", "Threads"))
+
+
 def hungry_job(max_memory):
     """A cubature job that fills max_memory with regions before it stops
     (tol_rel 1e-300: it refines until the region memory bound), on a
@@ -635,6 +642,7 @@ def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
           abs(alone["estimate"] - exact) <= max(alone["error"], 1e-15))
     st0 = idle.stats()
     base = vmrss_kb(pid)
+    base_parts = rss_parts(pid)
     peers = [Peer(unix_addr, timeout=60.0)] + [TcpPeer(tcp_addr, h) for h in
                                               ("127.0.0.1", GREEDY_HOST, "127.0.0.3")]
     jobs = []  # (peer, job id, request id)
@@ -715,7 +723,8 @@ def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
           "%d)" % (len(jobs), waits, len(jobs) - fit), waits >= len(jobs) - fit)
     check("%d hungry jobs: VmRSS %d kB -> peak %d kB, under +%d MiB"
           % (len(jobs), base, peak, total_mb + slack_mb),
-          peak - base < (total_mb + slack_mb) * 1024)
+          peak - base < (total_mb + slack_mb) * 1024,
+          "at the base %s; now %s" % (base_parts, rss_parts(pid)))
     check("%d hungry jobs from 4 peers: all answered with the same bits as on an idle daemon"
           % len(jobs), len(results) == len(jobs) and all(
               r is not None and qmcpeer.same(r["estimate"], alone["estimate"]) and
