@@ -276,8 +276,8 @@ int main(int argc, char **argv)
      * threshold turns the dynamic one off: 1 MiB and up is always mapped
      * and goes back to the kernel on free, so max-jobs-memory-total and
      * out-buffer-total-bytes bound what qmcd really holds. */
-    if (mallopt(M_MMAP_THRESHOLD, 1 << 20) != 1)
-        qmcd_warn("mallopt(M_MMAP_THRESHOLD) refused: freed job memory may stay in RSS");
+    if (mallopt(M_MMAP_THRESHOLD, 1 << 20) != 1) /* AddressSanitizer's allocator */
+        qmcd_info("mallopt(M_MMAP_THRESHOLD) refused: freed job memory may stay in RSS");
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     unsigned threads = srv.cfg.threads ? (unsigned)srv.cfg.threads
                                        : (unsigned)(cpus > 0 ? cpus : 1);
