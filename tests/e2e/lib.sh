@@ -11,13 +11,14 @@
 #   pids      PIDs the test started, separated by blanks; add one with
 #             `pids="$pids $!"`.  At exit each gets SIGKILL: a test stops
 #             what it started by PID, never by name.
-#   cleanup   the EXIT trap calls it by name: a test that must stop its
-#             daemons differently (SIGTERM and wait, extra PID variables)
-#             redefines cleanup() after sourcing, and removes "$tmp" itself.
+#   cleanup   the EXIT trap calls it by name: a test that must clean up
+#             otherwise redefines cleanup() after sourcing.
 #   pass, fail  the counters; `ok` counts a pass, `bad MSG` a failure and
 #             prints "FAIL: MSG".
 #
 # Functions:
+#   forget PID              drops PID from pids once the test has waited for
+#                           it, so that cleanup cannot signal a reused PID.
 #   finish                  prints "N passed, M failed" and exits 0 only if
 #                           nothing failed: the last line every test prints.
 #   wait_file FILE [STEPS]  polls in 50 ms steps, at most STEPS (default
@@ -55,6 +56,12 @@ finish() {
     echo "$pass passed, $fail failed"
     [ "$fail" -eq 0 ]
     exit
+}
+
+forget() {
+    e2e_keep=""
+    for e2e_p in $pids; do [ "$e2e_p" = "$1" ] || e2e_keep="$e2e_keep $e2e_p"; done
+    pids=$e2e_keep
 }
 
 wait_file() {
@@ -101,6 +108,7 @@ start() {
 # The ready file is written by rename once every listener is up, so a
 # non-empty file is a daemon that serves.
 wait_ready() {
+    e2e_pid=
     eval "e2e_pid=\$$1"
     e2e_i=0
     while [ ! -s "$2" ]; do
