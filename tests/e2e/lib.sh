@@ -11,8 +11,12 @@
 #   pids      PIDs the test started, separated by blanks; add one with
 #             `pids="$pids $!"`.  At exit each gets SIGKILL: a test stops
 #             what it started by PID, never by name.
+#   term_vars names of variables holding PIDs that are instead stopped
+#             with SIGTERM and waited for at exit, in the order named (an
+#             empty variable is skipped): for a test that checks its
+#             daemon's exit status and clears the variable once it has.
 #   cleanup   the EXIT trap calls it by name: a test that must clean up
-#             otherwise redefines cleanup() after sourcing.
+#             still otherwise redefines cleanup() after sourcing.
 #   pass, fail  the counters; `ok` counts a pass, `bad MSG` a failure and
 #             prints "FAIL: MSG".
 #
@@ -42,7 +46,12 @@
 
 tmp=$(mktemp -d)
 pids=""
+term_vars=""
 cleanup() {
+    for e2e_v in $term_vars; do
+        eval "e2e_p=\${$e2e_v:-}"
+        if [ -n "$e2e_p" ]; then kill "$e2e_p" 2>/dev/null; wait "$e2e_p" 2>/dev/null; fi
+    done
     for e2e_p in $pids; do kill -9 "$e2e_p" 2>/dev/null; done
     if [ -n "${KEEP_TMP:-}" ]; then echo "kept $tmp"; else rm -rf "$tmp"; fi
 }
