@@ -25,6 +25,10 @@
 #                           it, so that cleanup cannot signal a reused PID.
 #   finish                  prints "N passed, M failed" and exits 0 only if
 #                           nothing failed: the last line every test prints.
+#   tally FILE              adds FILE's "ok ..." lines to pass and its
+#                           "FAIL ..." lines to fail, and prints the latter;
+#                           1 if it has neither (a peer that printed no
+#                           check at all: the caller says which).
 #   wait_file FILE [STEPS]  polls in 50 ms steps, at most STEPS (default
 #                           200, 10 s), until FILE exists; 0 if it does.
 #   wait_gone PID [STEPS]   polls in 50 ms steps, at most STEPS (default
@@ -71,6 +75,15 @@ forget() {
     e2e_keep=""
     for e2e_p in $pids; do [ "$e2e_p" = "$1" ] || e2e_keep="$e2e_keep $e2e_p"; done
     pids=$e2e_keep
+}
+
+tally() {
+    e2e_ok=$(grep -c '^ok ' "$1")
+    e2e_bad=$(grep -c '^FAIL ' "$1")
+    pass=$((pass + e2e_ok))
+    fail=$((fail + e2e_bad))
+    grep '^FAIL ' "$1"
+    [ "$e2e_ok" -gt 0 ] || [ "$e2e_bad" -gt 0 ]
 }
 
 wait_file() {

@@ -24,14 +24,7 @@ PEER="$(cd "$(dirname "$0")" && pwd)/qmcpeer.py"
 # peer SCENARIO ARGS...: runs a qmcpeer scenario and counts its ok/FAIL lines.
 peer() {
     "$PY" "$PEER" "$@" > "$tmp/peer.out" 2>&1
-    n_ok=$(grep -c '^ok ' "$tmp/peer.out")
-    n_bad=$(grep -c '^FAIL ' "$tmp/peer.out")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep '^FAIL ' "$tmp/peer.out"
-    if [ "$n_ok" -eq 0 ] && [ "$n_bad" -eq 0 ]; then
-        bad "peer $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
-    fi
+    tally "$tmp/peer.out" || bad "peer $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
 }
 
 FP=$("$QMC" --version | sed -n 's/.*fingerprint: *//p')

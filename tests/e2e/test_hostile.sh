@@ -30,12 +30,10 @@ hostile() {
     shift
     "$PY" "$HERE/hostilepeer.py" "$scenario" "unix:$SOCK" "$MAIN" "$tmp/ref.f64" "$RSS_MB" \
         "$@" > "$tmp/h.out" 2>&1
-    n_ok=$(grep -c '^ok ' "$tmp/h.out")
-    n_bad=$(grep -c '^FAIL ' "$tmp/h.out")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep "^FAIL " "$tmp/h.out"; [ -n "${HOSTILE_VERBOSE:-}" ] && grep -E "^ok (load|saturated|after)" "$tmp/h.out"
-    [ "$n_ok" -gt 0 ] || [ "$n_bad" -gt 0 ] || bad "hostile peer printed nothing: $(head -c 300 "$tmp/h.out")"
+    tally "$tmp/h.out"
+    h_st=$?
+    [ -n "${HOSTILE_VERBOSE:-}" ] && grep -E "^ok (load|saturated|after)" "$tmp/h.out"
+    [ $h_st -eq 0 ] || bad "hostile peer printed nothing: $(head -c 300 "$tmp/h.out")"
 }
 
 # start: this test's own, not lib.sh's: one daemon on $SOCK with

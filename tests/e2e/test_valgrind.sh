@@ -18,14 +18,7 @@ if nm "$QMCD" 2>/dev/null | grep -q __asan_init; then
     exit 0
 fi
 . "$(dirname "$0")/lib.sh"
-count() {
-    n_ok=$(grep -c '^ok ' "$1")
-    n_bad=$(grep -c '^FAIL ' "$1")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep '^FAIL ' "$1"
-    [ "$n_ok" -gt 0 ] || [ "$n_bad" -gt 0 ] || bad "peer printed nothing: $(head -c 300 "$1")"
-}
+count() { tally "$1" || bad "peer printed nothing: $(head -c 300 "$1")"; }
 SOCK="$tmp/v.sock"
 cat > "$tmp/qmcd.conf" <<CONF
 threads = 2
