@@ -95,6 +95,14 @@ static uint64_t largest_root(uint64_t n, uint32_t d, uint64_t k_min)
     return k < k_min ? k_min : k;
 }
 
+static uint64_t floor_pow2(uint64_t n)
+{
+    uint64_t p = 1;
+    while (p <= n / 2)
+        p *= 2;
+    return p;
+}
+
 void cli_method_spec(const cli_method *m, const cli_budget *b, qmc_integrate_spec *s)
 {
     qmc_integrate_spec_init(s);
@@ -113,6 +121,8 @@ void cli_method_spec(const cli_method *m, const cli_budget *b, qmc_integrate_spe
     switch (m->method) {
     case QMC_METHOD_MC: case QMC_METHOD_LHS: case QMC_METHOD_QMC:
         s->sampling.n = b->evals ? b->evals : 1;
+        if (m->method == QMC_METHOD_QMC && b->pow2)
+            s->sampling.n = floor_pow2(s->sampling.n);
         s->sampling.reps = 1;
         s->sampling.seq = m->seq;
         s->sampling.scramble = m->scramble;
@@ -131,6 +141,8 @@ void cli_method_spec(const cli_method *m, const cli_budget *b, qmc_integrate_spe
         uint32_t reps = b->reps ? b->reps : 16;
         s->sampling.reps = reps;
         s->sampling.n = b->evals / reps ? b->evals / reps : 1;
+        if (b->pow2)
+            s->sampling.n = floor_pow2(s->sampling.n);
         s->sampling.seq = m->seq;
         s->sampling.scramble = m->scramble;
         s->n_given = 1;

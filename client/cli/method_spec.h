@@ -38,6 +38,10 @@ typedef struct cli_budget {
                                  budget (compare); 0: their default
                                  tolerance, with the budget as the cap
                                  (stability: what a user gets) */
+    int pow2;                 /* qmc, rqmc: round n down to a power of two,
+                                 the sizes at which nets keep their
+                                 property (compare; stability tests the
+                                 other sizes on purpose) */
 } cli_budget;
 
 /*
