@@ -200,18 +200,30 @@ $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
 BENCH_INT_DIMS := 2 5 10 20 30
 bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD)
 	$(BUILD)/bench/bench_seq $(BUILD)/bench/seq.csv
-	gnuplot -e "csv='$(BUILD)/bench/seq.csv'; png='$(BUILD)/bench/seq-rates.png'" \
-	  bench/seq_rates.gp
-	@echo "chart: $(BUILD)/bench/seq-rates.png"
+	$(MAKE) --no-print-directory bench-charts-seq
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
-	@for d in 2 4 8; do gnuplot -e "csv='$(BUILD)/bench/integrate-conv.csv'; d=$$d; \
-	  png='$(BUILD)/bench/integrate-conv-d$$d.png'" bench/integrate_conv.gp || exit 1; done
-	gnuplot -e "csv='$(BUILD)/bench/integrate-gl.csv'; png='$(BUILD)/bench/integrate-gl.png'" \
-	  bench/integrate_gl.gp
-	@for d in $(BENCH_INT_DIMS); do gnuplot -e "csv='$(BUILD)/bench/integrate-runs.csv'; \
-	  d=$$d; png='$(BUILD)/bench/integrate-time-d$$d.png'" bench/integrate_time.gp || exit 1; done
-	@echo "charts: $(BUILD)/bench/integrate-{conv-d*,gl,time-d*}.png"
+	$(MAKE) --no-print-directory bench-charts-integrate
 	sh bench/bench_daemon.sh $(BUILD)
+
+# Every chart twice, PNG and SVG side by side (each .gp script takes png=
+# or svg=); these only draw, from the CSVs a bench run left in
+# $(BUILD)/bench, so a chart can be redrawn without rerunning the bench.
+.PHONY: bench-charts-seq bench-charts-integrate
+BENCH_OUT := $(BUILD)/bench
+bench-charts-seq:
+	@for k in png svg; do gnuplot -e "csv='$(BENCH_OUT)/seq.csv'; \
+	  $$k='$(BENCH_OUT)/seq-rates.$$k'" bench/seq_rates.gp || exit 1; done
+	@echo "charts: $(BENCH_OUT)/seq-rates.{png,svg}"
+bench-charts-integrate:
+	@for k in png svg; do \
+	  for d in 2 4 8; do gnuplot -e "csv='$(BENCH_OUT)/integrate-conv.csv'; d=$$d; \
+	    $$k='$(BENCH_OUT)/integrate-conv-d$$d.$$k'" bench/integrate_conv.gp || exit 1; done; \
+	  gnuplot -e "csv='$(BENCH_OUT)/integrate-gl.csv'; $$k='$(BENCH_OUT)/integrate-gl.$$k'" \
+	    bench/integrate_gl.gp || exit 1; \
+	  for d in $(BENCH_INT_DIMS); do gnuplot -e "csv='$(BENCH_OUT)/integrate-runs.csv'; \
+	    d=$$d; $$k='$(BENCH_OUT)/integrate-time-d$$d.$$k'" bench/integrate_time.gp || exit 1; \
+	  done; done
+	@echo "charts: $(BENCH_OUT)/integrate-{conv-d*,gl,time-d*}.{png,svg}"
 
 # ---- demo ------------------------------------------------------------------------
 demo: deps-build deps-demo
