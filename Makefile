@@ -4,7 +4,8 @@
 #
 #   make            libraries and the qmc CLI
 #   make check      installs test packages, runs all tests plain and under
-#                   ASan+UBSan
+#                   ASan+UBSan, fuzzes briefly, and fails on any SILENT cell
+#                   of qmc stability --quick
 #   make sanitize   the sanitized build and its tests only
 #   make demo       installs packages, builds, shows the sampling core
 #   make bench      installs peers (GSL, cubature), runs benchmarks
@@ -128,6 +129,16 @@ check: deps-test
 	$(MAKE) test
 	$(MAKE) sanitize
 	$(MAKE) fuzz FUZZ_SECONDS=10
+	$(MAKE) stability-gate
+
+# Issue 13's gate: every method on every known failure case (qmc stability
+# --quick, about a minute on 2 cores); any SILENT cell - a wrong answer with
+# no flag - fails the build.  The report stays in $(BUILD)/stability.
+.PHONY: stability-gate
+stability-gate: all
+	@if ! $(QMC) stability --quick --fail-on-silent --out $(BUILD)/stability; then \
+	  echo "stability-gate: SILENT cells above (details: $(BUILD)/stability/REPORT.md)"; \
+	  exit 1; fi
 
 SAN_FLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
              -fno-sanitize-recover=all
