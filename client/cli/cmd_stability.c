@@ -406,6 +406,10 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
         mx->count[mx->cells[i].cls]++;
         mx->ok_flagged_runs += mx->cells[i].tally.ok_flagged;
         mx->runs += mx->cells[i].tally.runs;
+        if (!mx->cells[i].c->tiny) {
+            mx->ok_flagged_runs_normal += mx->cells[i].tally.ok_flagged;
+            mx->runs_normal += mx->cells[i].tally.runs;
+        }
     }
     rc = 0;
 fail:

@@ -114,18 +114,16 @@ static void cell_words(FILE *f, const cli_stab_cell *cell, const cli_stab_ref *r
     if (cell->method_used[0] && strcmp(cell->method_used, cell->m->name) != 0 &&
         strncmp(cell->m->name, cell->method_used, strlen(cell->method_used)) != 0)
         fprintf(f, " (ran %s)", cell->method_used);
-    fprintf(f, ": %u of %u runs silent; e.g. seed %llu gave ", cell->tally.silent,
-            cell->tally.runs, (unsigned long long)cell->seed);
-    num(f, cell->res.estimate);
-    if (cell->res.error_kind == QMC_ERROR_NONE) {
+    fprintf(f, ": %u of %u runs silent; ", cell->tally.silent, cell->tally.runs);
+    if (cell->m->randomized)
+        fprintf(f, "e.g. seed %llu ", (unsigned long long)cell->seed);
+    fprintf(f, "gave %.10g", cell->res.estimate);
+    if (cell->res.error_kind == QMC_ERROR_NONE)
         fputs(" with no bar", f);
-    } else {
-        fputs(" +- ", f);
-        num(f, cell->res.error);
-    }
-    fputs(" against ", f);
-    num(f, ref->truth.value);
-    fprintf(f, " (%s)", ref->source);
+    else
+        fprintf(f, " +- %.3g", cell->res.error);
+    fprintf(f, " against %.10g (%s): |error| %.3g", ref->truth.value, ref->source,
+            cell->v.abs_error);
     if (isfinite(cell->v.ratio))
         fprintf(f, ", %.3g x the bar", cell->v.ratio);
     fprintf(f, ", %llu evaluations, no flag. %s.\n", (unsigned long long)cell->res.evals,
@@ -149,8 +147,10 @@ int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
             mx->count[QMC_STAB_OK], mx->count[QMC_STAB_FLAGGED], mx->count[QMC_STAB_REFUSED],
             mx->count[QMC_STAB_SILENT]);
     fprintf(f, "**Silent cells: %u.**  Correct answers that carry a flag anyway (false\n"
-            "alarms): %u of %u runs.\n\n", mx->count[QMC_STAB_SILENT], mx->ok_flagged_runs,
-            mx->runs);
+            "alarms): %u of %u runs on the cases with a normal budget; %u of %u runs in\n"
+            "all, the tiny-budget cases included (where a flag such as tail_untested is\n"
+            "what the evidence calls for).\n\n", mx->count[QMC_STAB_SILENT],
+            mx->ok_flagged_runs_normal, mx->runs_normal, mx->ok_flagged_runs, mx->runs);
     fputs("A cell is OK when |estimate - truth| <= 3 x the reported error (plus the\n"
           "reference's own error and 64 ulps of rounding), FLAGGED when it is not but a\n"
           "flag says so (or the method says it has no bar), REFUSED when the method\n"
@@ -208,9 +208,9 @@ static void json_num(FILE *f, double v)
 void cli_stab_print_json(FILE *f, const cli_stab_matrix *mx)
 {
     fprintf(f, "{\"quick\":%s,\"seconds\":%.3f,\"runs\":%u,\"ok_flagged_runs\":%u,"
-            "\"counts\":{\"OK\":%u,\"FLAGGED\":%u,\"REFUSED\":%u,\"SILENT\":%u},\"cells\":[",
+            "\"ok_flagged_runs_normal_budget\":%u,\"counts\":{\"OK\":%u,\"FLAGGED\":%u,\"REFUSED\":%u,\"SILENT\":%u},\"cells\":[",
             mx->quick ? "true" : "false", mx->seconds, mx->runs, mx->ok_flagged_runs,
-            mx->count[0], mx->count[1], mx->count[2], mx->count[3]);
+            mx->ok_flagged_runs_normal, mx->count[0], mx->count[1], mx->count[2], mx->count[3]);
     for (size_t i = 0; i < mx->n_cases * mx->n_methods; i++) {
         const cli_stab_cell *cell = &mx->cells[i];
         const cli_stab_ref *ref = &mx->refs[i / mx->n_methods];
@@ -240,17 +240,19 @@ void cli_stab_print_summary(FILE *f, const cli_stab_matrix *mx)
     fprintf(f, "stability%s: %zu cells (%zu cases x %zu methods), %u runs in %.1f s\n",
             mx->quick ? " --quick" : "", mx->n_cases * mx->n_methods, mx->n_cases,
             mx->n_methods, mx->runs, mx->seconds);
-    fprintf(f, "  OK %u  FLAGGED %u  REFUSED %u  SILENT %u  (flagged correct runs: %u)\n",
-            mx->count[0], mx->count[1], mx->count[2], mx->count[3], mx->ok_flagged_runs);
+    fprintf(f, "  OK %u  FLAGGED %u  REFUSED %u  SILENT %u\n", mx->count[0], mx->count[1],
+            mx->count[2], mx->count[3]);
+    fprintf(f, "  correct runs flagged anyway: %u of %u at normal budgets, %u of %u in all\n",
+            mx->ok_flagged_runs_normal, mx->runs_normal, mx->ok_flagged_runs, mx->runs);
     for (size_t i = 0; i < mx->n_cases * mx->n_methods; i++) {
         const cli_stab_cell *cell = &mx->cells[i];
         if (cell->cls != QMC_STAB_SILENT)
             continue;
-        fprintf(f, "  SILENT %-28s %-20s %u/%u runs, est %.6g", cell->c->name, cell->m->name,
+        fprintf(f, "  SILENT %-28s %-20s %u/%u runs, est %.10g", cell->c->name, cell->m->name,
                 cell->tally.silent, cell->tally.runs, cell->res.estimate);
         if (cell->res.error_kind != QMC_ERROR_NONE)
             fprintf(f, " +- %.3g", cell->res.error);
-        fprintf(f, ", truth %.6g\n", mx->refs[i / mx->n_methods].truth.value);
+        fprintf(f, ", truth %.10g\n", mx->refs[i / mx->n_methods].truth.value);
     }
 }
 
