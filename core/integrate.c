@@ -510,16 +510,22 @@ static int auto_rqmc_setup(qmc_integrate_spec *s, const qmc_integrand **f,
 /* Below 2 strata an axis "stratified" is one stratum of one point at best
  * (k = 1: the largest k^d <= n at d >= 13 for the default 4096 points):
  * an infinite bar that looked like a result.  Refused instead. */
-static int stratified_refuse(uint64_t asked, uint64_t n, uint32_t d, qmc__msg *why)
+static int stratified_refuse(uint64_t n, uint32_t d, qmc__msg *why)
 {
     uint64_t need = 1;
     for (uint32_t j = 0; j < d && need <= QMC_SEQ_MAX_INDEX; j++)
         need *= 2;
     if (n >= need)
         return 0;
-    qmc__msg_set(why, "stratified: n = ", asked, " points give fewer than 2 strata an axis in ");
-    qmc__msg_u64(why, d);
-    qmc__msg_str(why, " dims (it needs 2^d points at least); use lhs or rqmc, or raise --n");
+    qmc__msg_set(why, "stratified: 2 strata an axis in ", d, " dims need 2^d = ");
+    if (need <= QMC_SEQ_MAX_INDEX)
+        qmc__msg_u64(why, need);
+    else
+        qmc__msg_str(why, "more than 2^32");
+    qmc__msg_str(why, " points; n = ");
+    qmc__msg_u64(why, n);
+    qmc__msg_str(why, " gives 1 stratum an axis and no error bar: use lhs or rqmc, or raise "
+                      "--n");
     return QMC_ECOUNT;
 }
 
@@ -536,7 +542,7 @@ static int run_sampling_method(const qmc_integrate_spec *s, const qmc_integrand 
     if (q.sampler == QMC_SAMPLER_STRATIFIED) {
         if (!s->n_given)
             q.n = stratified_count(q.n, f->dims);
-        int err = stratified_refuse(s->sampling.n, q.n, f->dims, why);
+        int err = stratified_refuse(q.n, f->dims, why);
         if (err)
             return err;
     }
@@ -546,9 +552,25 @@ static int run_sampling_method(const qmc_integrate_spec *s, const qmc_integrand 
 static int run_rule(const qmc_integrate_spec *s, const qmc_integrand *f,
                     qmc_integrate_report *rep, qmc__msg *why);
 
+static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
+                          qmc_integrate_report *rep, char *why, size_t why_bytes);
+
+/* Every method, then the integrand's own audit of the result (evidence
+ * only it can gather: a scene's MIS shares). */
 int qmc_integrate(const qmc_integrate_spec *spec, const qmc_integrand *f,
                   const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
                   qmc_integrate_report *rep, char *why, size_t why_bytes)
+{
+    int err = integrate_once(spec, f, g, runner, runner_ctx, rep, why, why_bytes);
+    if (err == 0 && f->audit)
+        rep->res.flags |= f->audit(f->ctx, &rep->res);
+    return err;
+}
+
+static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
+                          qmc_integrate_report *rep, char *why, size_t why_bytes)
 {
     qmc__msg m;
     qmc__msg_init(&m, why, why_bytes);
