@@ -52,7 +52,10 @@ typedef struct cli_cmp {
     cli_cmp_point *points;
     size_t n_points;
     double slope[CLI_CMP_MAX_METHODS];   /* fitted d log(error) / d log(evals) */
+    double intercept[CLI_CMP_MAX_METHODS]; /* log10 error at 1 evaluation */
+    double fit_lo[CLI_CMP_MAX_METHODS], fit_hi[CLI_CMP_MAX_METHODS]; /* evals fitted */
     int has_slope[CLI_CMP_MAX_METHODS];
+    int at_rounding[CLI_CMP_MAX_METHODS]; /* points left out: at rounding */
 } cli_cmp;
 
 /* compare_report.c: medians, the Pareto front and slopes, then files.

@@ -53,7 +53,8 @@ int cli_cmp_summarize(cli_cmp *c)
                 if (r->method != m || r->budget_index != k || r->refused ||
                     !isfinite(r->v.abs_error))
                     continue;
-                sec[n] = r->seconds;
+                /* a clock tick at least: log axes have no 0 */
+                sec[n] = fmax(r->seconds, 1e-9);
                 err[n] = fmax(r->v.abs_error, lo);
                 ev[n] = (double)r->res.evals;
                 n++;
@@ -79,36 +80,34 @@ int cli_cmp_summarize(cli_cmp *c)
                 p->pareto = 0;
         }
     }
-    /* least squares of log error on log evaluations, per method */
+    /* Least squares of log error on log evaluations, per method, over the
+     * points above rounding (1e-14 of the scale): a method that has reached
+     * rounding stops converging, and its plateau would bend the slope. */
+    const double plateau = 100 * lo;
     for (uint32_t m = 0; m < c->n_methods; m++) {
-        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        double sx = 0, sy = 0, sxx = 0, sxy = 0, xlo = INFINITY, xhi = 0;
         size_t n = 0;
         for (size_t i = 0; i < c->n_points; i++) {
             const cli_cmp_point *p = &c->points[i];
             if (p->method != m || !(p->evals > 0))
                 continue;
+            if (p->error <= plateau) {
+                c->at_rounding[m]++;
+                continue;
+            }
             double x = log10(p->evals), y = log10(p->error);
             sx += x, sy += y, sxx += x * x, sxy += x * y, n++;
+            xlo = fmin(xlo, p->evals), xhi = fmax(xhi, p->evals);
         }
         double den = (double)n * sxx - sx * sx;
         if (n >= 2 && den > 1e-9) {
             c->slope[m] = ((double)n * sxy - sx * sy) / den;
+            c->intercept[m] = (sy - c->slope[m] * sx) / (double)n;
+            c->fit_lo[m] = xlo, c->fit_hi[m] = xhi;
             c->has_slope[m] = 1;
         }
     }
     return 0;
-}
-
-/* The intercept of method m's fitted line (log10 error at log10 evals 0). */
-static double intercept(const cli_cmp *c, uint32_t m)
-{
-    double sx = 0, sy = 0;
-    size_t n = 0;
-    for (size_t i = 0; i < c->n_points; i++)
-        if (c->points[i].method == m && c->points[i].evals > 0) {
-            sx += log10(c->points[i].evals), sy += log10(c->points[i].error), n++;
-        }
-    return n ? (sy - c->slope[m] * sx) / (double)n : 0;
 }
 
 static void flags_text(FILE *f, uint32_t flags)
@@ -313,8 +312,8 @@ static int write_report(FILE *f, const cli_cmp *c)
         fprintf(f, " +- %.3g", c->truth.abs_error);
     fprintf(f, " (%s)\n", c->ref_source);
     if (c->endpoint)
-        fprintf(f, "- jobs ran on the daemon at `%s`; seconds are its compute time\n",
-                c->endpoint);
+        fprintf(f, "- jobs ran on the daemon at `%s`; seconds are each job's round trip "
+                "(transport and queueing included)\n", c->endpoint);
     else
         fputs("- jobs ran in-process; seconds are wall time\n", f);
     fprintf(f, "- %u methods, %u budgets from %.3g to %.3g evaluations, %u seeds for the "
@@ -322,10 +321,15 @@ static int write_report(FILE *f, const cli_cmp *c)
             (double)c->budgets[0], (double)c->budgets[c->n_budgets - 1], c->reps, c->n_runs);
     write_fastest(f, c);
     write_honesty(f, c);
-    fputs("## Convergence (fitted on the medians)\n\n", f);
+    fputs("## Convergence (fitted on the medians above rounding, 1e-14 of the scale)\n\n", f);
     for (uint32_t m = 0; m < c->n_methods; m++) {
         if (c->has_slope[m])
-            fprintf(f, "- `%s`: error ~ evaluations^%.2f\n", c->methods[m].name, c->slope[m]);
+            fprintf(f, "- `%s`: error ~ evaluations^%.2f (from %.3g to %.3g evaluations)%s\n",
+                    c->methods[m].name, c->slope[m], c->fit_lo[m], c->fit_hi[m],
+                    c->at_rounding[m] ? "; beyond, it is at rounding" : "");
+        else if (c->at_rounding[m])
+            fprintf(f, "- `%s`: at rounding at %u of its budgets, too few left above it to "
+                    "fit a slope\n", c->methods[m].name, c->at_rounding[m]);
         else
             fprintf(f, "- `%s`: too few budgets with an estimate to fit a slope\n",
                     c->methods[m].name);
@@ -460,7 +464,7 @@ static void chart(FILE *gp, cli_outdir *od, const cli_cmp *c, const char *name, 
                     c->dims);
             for (uint32_t m = 0; m < c->n_methods; m++)
                 if (c->has_slope[m])
-                    fprintf(gp, "f%u(x) = 10**(%.6g) * x**(%.6g)\n", m, intercept(c, m),
+                    fprintf(gp, "f%u(x) = 10**(%.6g) * x**(%.6g)\n", m, c->intercept[m],
                             c->slope[m]);
             fputs("plot ", gp);
             for (uint32_t m = 0; m < c->n_methods; m++) {
@@ -470,11 +474,13 @@ static void chart(FILE *gp, cli_outdir *od, const cli_cmp *c, const char *name, 
                 cli_gnuplot_quote(gp, pts);
                 if (c->has_slope[m])
                     fprintf(gp, " index %u using 4:3 with points pt 7 lc %u title '%s (slope "
-                            "%.2f)', f%u(x) lc %u dt 2 notitle", m, m + 1, c->methods[m].name,
-                            c->slope[m], m, m + 1);
+                            "%.2f)', [%.6g:%.6g] f%u(x) lc %u dt 2 notitle", m, m + 1,
+                            c->methods[m].name, c->slope[m], c->fit_lo[m], c->fit_hi[m], m,
+                            m + 1);
                 else
-                    fprintf(gp, " index %u using 4:3 with points pt 7 lc %u title '%s'", m,
-                            m + 1, c->methods[m].name);
+                    fprintf(gp, " index %u using 4:3 with points pt 7 lc %u title '%s%s'", m,
+                            m + 1, c->methods[m].name,
+                            c->at_rounding[m] ? " (at rounding)" : "");
             }
         } else {
             fprintf(gp, "set title '%s: reported error against actual error, every run "

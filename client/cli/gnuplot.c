@@ -2,7 +2,6 @@
  * gnuplot.c - runs gnuplot on a generated script (see gnuplot.h).
  */
 #include <errno.h>
-#include <signal.h>
 #include <string.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -53,18 +52,22 @@ int cli_gnuplot_run(const char *script_path)
         _exit(127);
     }
     close(fd[1]);
-    char msg[512];
+    /* gnuplot echoes the offending command, a caret, then the reason on
+     * its last line: keep the tail of what it says */
+    char msg[8192];
     size_t got = 0;
     ssize_t r;
-    char sink[512];
-    while ((r = read(fd[0], got < sizeof msg - 1 ? msg + got : sink,
-                     got < sizeof msg - 1 ? sizeof msg - 1 - got : sizeof sink)) != 0) {
+    for (;;) {
+        if (got == sizeof msg - 1) { /* keep the second half */
+            memmove(msg, msg + sizeof msg / 2, got - sizeof msg / 2);
+            got -= sizeof msg / 2;
+        }
+        r = read(fd[0], msg + got, sizeof msg - 1 - got);
         if (r < 0 && errno == EINTR)
             continue;
-        if (r < 0)
+        if (r <= 0)
             break;
-        if (got < sizeof msg - 1)
-            got += (size_t)r;
+        got += (size_t)r;
     }
     close(fd[0]);
     msg[got] = '\0';
@@ -73,12 +76,11 @@ int cli_gnuplot_run(const char *script_path)
         ;
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0)
         return 0;
-    /* the first non-blank line gnuplot printed names the problem */
-    char *line = msg;
-    while (*line == '\n' || *line == ' ')
-        line++;
-    char *nl = strchr(line, '\n');
-    if (nl)
-        *nl = '\0';
+    while (got > 0 && (msg[got - 1] == '\n' || msg[got - 1] == ' '))
+        msg[--got] = '\0';
+    char *line = strrchr(msg, '\n');
+    line = line ? line + 1 : msg;
+    if (strlen(line) > 200)
+        line[200] = '\0';
     return cli_error("gnuplot failed on %s: %s", script_path, line[0] ? line : "no message"), -1;
 }

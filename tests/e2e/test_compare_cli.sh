@@ -158,6 +158,18 @@ expect_error "--reps" $JOB --reps 0 --out "$tmp/bad"
 [ "$(ls -A "$tmp/keep")" = "old.txt" ] && [ "$(cat "$tmp/keep/old.txt")" = precious ] && ok ||
     bad "a failed compare touched an existing DIR: $(ls -A "$tmp/keep")"
 
+# gnuplot failing late (here a stand-in on PATH): its reason in one line,
+# exit 2, and nothing of the run left in DIR
+mkdir "$tmp/fakebin"
+printf '#!/bin/sh\necho "plot this"\necho "\\"x.gp\\", line 3: all points y value undefined!"\nexit 1\n' \
+    > "$tmp/fakebin/gnuplot"
+chmod +x "$tmp/fakebin/gnuplot"
+PATH="$tmp/fakebin:$PATH" "$QMC" compare $JOB --methods mc --budgets 1e3 --reps 1 \
+    --out "$tmp/late" > /dev/null 2> "$tmp/err.txt"
+rc=$?
+[ $rc -eq 2 ] && tail -n 1 "$tmp/err.txt" | grep -q 'all points y value undefined' &&
+    [ ! -e "$tmp/late" ] && ok || bad "late gnuplot failure: rc $rc, $(tail -n 1 "$tmp/err.txt")"
+
 "$QMC" compare --help | grep -q 'Pareto' && ok || bad "--help does not mention the Pareto front"
 
 echo "$pass passed, $fail failed"
