@@ -642,8 +642,8 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
         !(rep->res.flags & QMC_FLAG_NONFINITE) &&
         spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16) {
         reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
-                      " nodes did not resolve the integrand (levels agreeing at near zero), "
-                      "so rqmc with the rest of the budget");
+                      " nodes saw no mass (levels agreeing at near zero): rqmc with the "
+                      "rest of the budget");
         s.method = QMC_METHOD_RQMC;
         s.max_evals = spec->max_evals - spent;
         s.sampling = spec->sampling;
