@@ -49,7 +49,8 @@ static const char stability_help[] =
     "test, p = 1%, alpha = 1e-3).  Prints a summary and the silent cells.\n"
     "\n"
     "  --quick           2^16 evaluations a run, 1e6 for adaptive methods, 3\n"
-    "                    seeds (default: 2^20, 2e7, 5 seeds)\n"
+    "                    seeds, about 12 CPU seconds (default: 2^20, 2e7, 5\n"
+    "                    seeds, about 5 CPU minutes)\n"
     "  --out DIR         write DIR/stability.csv, DIR/REPORT.md and the heat\n"
     "                    map DIR/stability.png and .svg (with its gnuplot\n"
     "                    script and data); all or nothing\n"
@@ -240,7 +241,7 @@ static int case_reference(const cli_stab_case *c, const qmc_job *job, cli_stab_r
         return cli_error("stability case %s: no closed form", c->name), -1;
     ref->truth.value = f->exact;
     ref->truth.defined = 1;
-    ref->truth.scale = f->has_abs_integral ? f->abs_integral : 0;
+    ref->truth.scale = f->has_abs_integral ? f->abs_integral : c->scale;
     ref->source = "closed form";
     return 0;
 }

@@ -31,6 +31,9 @@ typedef struct cli_stab_case {
     double a[CLI_STAB_MAX_PARAMS], u[CLI_STAB_MAX_PARAMS];
     uint32_t n_params;            /* 0: --difficulty fixed, seed 0 */
     int infinite;                 /* the integral overflows a double */
+    double scale;                 /* int |f| (or a bound) where the test
+                                     function does not know it, for the
+                                     rounding slack of near-zero integrals */
     /* ... or a scene */
     const char *scene;            /* scene text */
     qmc_scene_strategy strategy;

@@ -107,11 +107,11 @@ const cli_stab_case cli_stab_cases[] = {
     /* near-zero integrals */
     {.name = "zero-poly-1d", .category = "near-zero integral",
      .why = "-1 + 2x: integral exactly 0", .integrand = "poly", .dims = 1,
-     .a = {-1, 2}, .n_params = 2},
+     .a = {-1, 2}, .n_params = 2, .scale = 0.5 /* int |2x - 1| */},
     {.name = "zero-osc-2d", .category = "near-zero integral",
      .why = "cos(pi/2 + pi x + pi y): integral 0 up to rounding",
      .integrand = "genz-oscillatory", .dims = 2, .a = {3.141592653589793, 3.141592653589793},
-     .u = {0.25, 0}, .n_params = 2},
+     .u = {0.25, 0}, .n_params = 2, .scale = 1 /* |cos| <= 1 bounds int |f| */},
     /* NaN and overflow */
     {.name = "overflow-disc-2d", .category = "NaN and overflow",
      .why = "exp(400 x + 400 y): values overflow to inf, the integral too",
