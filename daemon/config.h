@@ -4,10 +4,16 @@
 #ifndef QMCD_CONFIG_H
 #define QMCD_CONFIG_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define QMCD_MAX_LISTEN 16
 #define QMCD_PATH_BYTES 256
+#define QMCD_MODBUS_ALLOW_BYTES 2048
+/* A config file larger than this is refused (the example is ~4 KiB). */
+#define QMCD_CONFIG_MAX_BYTES (1 << 20)
+/* The file --check-config reads when no --config is given. */
+#define QMCD_DEFAULT_CONFIG "/etc/qmcd/qmcd.conf"
 
 /* Numeric settings: X(key, field, default, min, max, reloadable).  The key
  * is both the config-file key and the flag (--key). */
@@ -29,7 +35,10 @@
     X("write-timeout-ms", write_timeout_ms, 60000, 100, 86400000ull, 1)         \
     X("out-buffer-bytes", out_buffer_bytes, 4u << 20, 2u << 20, 1u << 30, 1)    \
     X("max-shm-bytes", max_shm_bytes, 64u << 20, 0, 1u << 30, 1)                \
-    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)
+    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
+    X("modbus-max-connections", modbus_max_connections, 256, 1, 1u << 16, 1)   \
+    X("modbus-frame-timeout-ms", modbus_frame_timeout_ms, 5000, 50, 3600000, 1) \
+    X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;
@@ -40,12 +49,18 @@ typedef struct qmcd_config {
     char ready_file[QMCD_PATH_BYTES];
     char listen[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
     unsigned n_listen;
+    /* Modbus transports (daemon/modbus*.c): tcp:HOST:PORT or rtu:...; and
+     * the clients allowed in, as the `modbus-allow` text (validated). */
+    char modbus[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
+    unsigned n_modbus;
+    char modbus_allow[QMCD_MODBUS_ALLOW_BYTES];
 } qmcd_config;
 
 /* Flags as given, kept so SIGHUP can re-apply them over the re-read file
  * (flags win over the file, on every load). */
 typedef struct qmcd_args {
     const char *config_path;       /* NULL: no file */
+    int check_only;                /* --check-config: validate and exit */
     int argc;
     char **argv;                   /* the option words, re-parsed on reload */
 } qmcd_args;
@@ -69,6 +84,16 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
 /* Logs the settings that differ between old and fresh but need a restart,
  * and copies those from old into fresh (a reload never changes them). */
 void qmcd_config_keep_fixed(const qmcd_config *old, qmcd_config *fresh);
+
+/*
+ * Parses config text (len bytes, not necessarily NUL-terminated; name is
+ * the file name used in messages) over *c, which holds defaults or an
+ * earlier layer.  No I/O: the fuzz target calls it on raw bytes.  Returns
+ * 0, or -1 with one line ("NAME:LINE: problem") in why; *c may then hold
+ * the keys before the bad line.
+ */
+int qmcd_config_parse(const char *name, const char *text, size_t len, qmcd_config *c,
+                      char *why, size_t why_bytes);
 
 void qmcd_usage(void);
 

@@ -29,6 +29,7 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
+#include "modbus_bridge.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -41,10 +42,15 @@ void qmcd_main_notify(qmcd_server *srv, const char *state)
 void qmcd_main_reload(qmcd_server *srv)
 {
     qmcd_config fresh;
-    char why[512];
-    qmcd_main_notify(srv, "RELOADING=1");
+    char why[512], status[600];
+    /* MONOTONIC_USEC lets a systemd with Type=notify-reload match this
+     * RELOADING=1 to the signal it sent; older ones ignore it. */
+    snprintf(status, sizeof status, "RELOADING=1\nMONOTONIC_USEC=%llu",
+             (unsigned long long)qmcd_now_us());
+    qmcd_main_notify(srv, status);
     if (qmcd_config_load(&srv->args, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration: %s", why);
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
@@ -52,8 +58,9 @@ void qmcd_main_reload(qmcd_server *srv)
         srv->stats.reloads++;
         qmcd_notice("configuration reloaded%s%s", srv->args.config_path ? " from " : "",
                     srv->args.config_path ? srv->args.config_path : "");
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; configuration reloaded");
     }
-    qmcd_main_notify(srv, "READY=1");
+    qmcd_main_notify(srv, status);
 }
 
 /* Writes the bound addresses, one per line, to path via a rename so that a
@@ -68,6 +75,7 @@ static int write_ready_file(const qmcd_server *srv, const char *path)
     fprintf(f, "pid %ld\n", (long)getpid());
     for (unsigned i = 0; i < srv->n_listeners; i++)
         fprintf(f, "%s\n", srv->listeners[i].name);
+    qmcd_modbus_write_names(srv, f);
     if (fclose(f) != 0 || rename(tmp, path) != 0) {
         unlink(tmp);
         return -1;
@@ -143,6 +151,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "qmcd: %s\n", why);
         return 2;
     }
+    if (srv.args.check_only) {
+        printf("qmcd: %s: configuration is valid\n",
+               srv.args.config_path ? srv.args.config_path : QMCD_DEFAULT_CONFIG);
+        return 0;
+    }
     qmcd_log_set_level(srv.cfg.log_level);
     /* Signals are read from a signalfd: block them before any thread
      * exists so every worker inherits the mask. */
@@ -160,6 +173,19 @@ int main(int argc, char **argv)
         fprintf(stderr, "qmcd: %s\n", why);
         free(srv.listeners);
         return 1;
+    }
+    if (qmcd_modbus_open(&srv, why, sizeof why) != 0) {
+        fprintf(stderr, "qmcd: %s\n", why);
+        qmcd_listeners_close(&srv);
+        free(srv.listeners);
+        return 1;
+    }
+    /* Under systemd (a notify socket is given) qmcd never forks: the unit
+     * tracks the process it started, and a forked child's notifications
+     * would come from a PID that NotifyAccess=main ignores. */
+    if (!srv.cfg.foreground && getenv("NOTIFY_SOCKET")) {
+        qmcd_info("NOTIFY_SOCKET is set: staying in the foreground");
+        srv.cfg.foreground = 1;
     }
     int ready_fd = -1;
     static char config_abs[QMCD_PATH_BYTES]; /* outlives main's frame use */
@@ -181,6 +207,7 @@ int main(int argc, char **argv)
         }
         if (bad) {
             fprintf(stderr, "qmcd: a path is too long to make absolute before detaching\n");
+            qmcd_modbus_close(&srv);
             qmcd_listeners_close(&srv);
             return 1;
         }
@@ -196,6 +223,8 @@ int main(int argc, char **argv)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
+    if (!err) /* after the fork: the serial threads start here */
+        err = qmcd_modbus_start(&srv);
     if (err) {
         qmcd_err("cannot start: %s", strerror(-err));
         rc = 1;
@@ -225,6 +254,7 @@ out:
     while (srv.conns)
         qmcd_conn_close(srv.conns, "exiting");
     qmcd_conns_reap(&srv);
+    qmcd_modbus_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
     qmcd_loop_close(&srv);
