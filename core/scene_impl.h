@@ -55,6 +55,7 @@ typedef struct qmc__scene_geom {
      * the cone's cosine */
     qmc_vec3 a, a1, a2;
     double dist, radius, cos_max;
+    double omc;              /* 1 - cos_max, without its cancellation */
     /* rect: corner, edges, m = edge1 x edge2, its unit, area */
     qmc_vec3 c, e1, e2, m, nl;
     double area, inv_m2;

@@ -619,6 +619,24 @@ static void test_tiny_budget_flagged(void **state)
         }
 }
 
+/* Light sampling of a light 3e-4 rad wide: the cone's 1 - cos is 4.5e-8,
+ * and taken from cos it kept 2.5e-9 relative error, a bias 1000x the
+ * RQMC bar (the stability matrix's tiny-light/light cell).  Now the
+ * interval covers the closed form albedo L (r / D)^2 cos(theta). */
+static void test_tiny_cone_no_roundoff_bias(void **state)
+{
+    (void)state;
+    static const char tiny[] = "point 0 0 0\nnormal 0 0 1\nbrdf lambert albedo 0.8\n"
+                               "light sphere center 0.3 0.2 10 radius 0.003 radiance 1e6\n";
+    scene_out o = run_scene(tiny, QMC_SCENE_LIGHT, 0, QMC_METHOD_RQMC, 4096);
+    double dist = sqrt(0.09 + 0.04 + 100.0), s = 0.003 / dist;
+    double truth = 0.8 * 1e6 * s * s * (10.0 / dist);
+    assert_true(fabs(o.truth - truth) <= 1e-14 * truth);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.res.flags, 0);
+    assert_true(o.rep.res.ci_low <= truth && truth <= o.rep.res.ci_high);
+}
+
 /* Class 5: a radiance of 1e308 overflows the sums of finite values. */
 static void test_overflow_nonfinite(void **state)
 {
@@ -695,6 +713,7 @@ int main(void)
         cmocka_unit_test(test_mis_undersampled),
         cmocka_unit_test(test_tiny_budget_flagged),
         cmocka_unit_test(test_overflow_nonfinite),
+        cmocka_unit_test(test_tiny_cone_no_roundoff_bias),
         cmocka_unit_test(test_stratified_refused_past_2_per_axis),
         cmocka_unit_test(test_new_flags_quiet_on_clean_runs),
     };
