@@ -636,14 +636,17 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
     /* auto chose the rule on what f declares, and the rule cannot see what
      * its nodes missed: more work, not a flag, while the budget lasts -
      * RQMC with what is left, whose points land between any grid's nodes
-     * and whose adaptive rounds grow until they find the mass. */
+     * and whose adaptive rounds grow until they find the mass.  Only when
+     * at least half the budget is left (a rule that saw nothing stops
+     * after a few dozen nodes); a rule that spent most of it unresolved
+     * keeps its flagged answer rather than trade it for a thinner one. */
     const uint64_t spent = rep->res.evals;
     if (spec->method == QMC_METHOD_AUTO && (rep->res.flags & QMC_FLAG_UNRESOLVED) &&
-        !(rep->res.flags & QMC_FLAG_NONFINITE) &&
+        !(rep->res.flags & QMC_FLAG_NONFINITE) && spent <= spec->max_evals / 2 &&
         spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16) {
         reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
-                      " nodes saw no mass (levels agreeing at near zero): rqmc with the "
-                      "rest of the budget");
+                      " nodes left the integrand unresolved (levels agreeing near zero): "
+                      "rqmc with the rest of the budget");
         s.method = QMC_METHOD_RQMC;
         s.max_evals = spec->max_evals - spent;
         s.sampling = spec->sampling;
