@@ -75,6 +75,15 @@ while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
     sleep 0.01
 done
 
+# RS-485 mode on a line whose driver cannot switch direction (a pty): one
+# line naming the problem, before anything is served.
+"$QMCD" --foreground --listen "unix:$tmp/x.sock" --modbus "rtu:$tmp/ttyq:19200:E:8:1:5:rs485" \
+    > /dev/null 2> "$tmp/err"
+rc=$?
+[ $rc -ne 0 ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q "RS-485" "$tmp/err" &&
+    [ ! -e "$tmp/x.sock" ]
+check "rtu ...:rs485 on a pty: exit $rc, $(cat "$tmp/err")" $?
+
 # ---- 2. the daemon -----------------------------------------------------------
 # The same keys work in the config file: the transports and the allow list
 # come from it (two modbus-allow lines add up), the limits from flags.
