@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "json.h"
 #include "png.h"
 #include "qmc/quality.h"
 
@@ -34,7 +35,8 @@
 
 static const char spectrum_help[] =
     "usage: qmc spectrum --seq KIND [--scramble S] [--seed X] [--dims D]\n"
-    "                    --count N [--reps R] [--freq K] --png FILE --csv FILE\n"
+    "                    --count N [--reps R] [--freq K] [--png FILE] [--csv FILE]\n"
+    "                    [--json]\n"
     "\n"
     "Periodogram P(k) = |sum_j exp(-2 pi i k.x_j)|^2 / N of the first two\n"
     "coordinates of points 0 .. N-1, for integer k in [-K, K]^2, averaged\n"
@@ -52,6 +54,10 @@ static const char spectrum_help[] =
     "              log10 scale from 1e-3 (black) to the largest non-DC\n"
     "              power (white); the DC pixel is white; each frequency is a\n"
     "              square of pixels so the image is at least 256 wide\n"
+    "  --json      one JSON object on stdout: seq, scramble, seed, dims, count,\n"
+    "              reps, freq, csv and png (the files written, or null) and\n"
+    "              radial_power, the CSV's power column (index = frequency)\n"
+    "At least one of --png, --csv and --json is required.\n"
     "\n"
     "Work limit: N x R x (2K+1)^2 <= 4e9.\n";
 
@@ -215,6 +221,36 @@ static int write_png(const char *path, const double *power, uint32_t kmax)
     return rc;
 }
 
+/* A path as a JSON string member, or null when the file was not asked for. */
+static void json_path(const char *key, const char *path)
+{
+    if (path)
+        cli_json_str(stdout, key, path, 1);
+    else
+        printf("\"%s\":null,", key);
+}
+
+static int print_json(const qmc_seq_spec *spec, uint64_t count, uint32_t reps,
+                      uint32_t kmax, const double *radial, const char *csv_path,
+                      const char *png_path)
+{
+    putchar('{');
+    cli_json_str(stdout, "seq", qmc_seq_kind_name(spec->kind), 1);
+    cli_json_str(stdout, "scramble", qmc_scramble_name(spec->scramble), 1);
+    cli_json_u64(stdout, "seed", spec->seed, 1);
+    cli_json_u64(stdout, "dims", spec->dims, 1);
+    cli_json_u64(stdout, "count", count, 1);
+    cli_json_u64(stdout, "reps", reps, 1);
+    cli_json_u64(stdout, "freq", kmax, 1);
+    json_path("csv", csv_path);
+    json_path("png", png_path);
+    cli_json_num_array(stdout, "radial_power", radial, (size_t)kmax + 1, 0);
+    fputs("}\n", stdout);
+    if (ferror(stdout) || fflush(stdout) != 0)
+        return cli_error("spectrum: writing the JSON result: %s", strerror(errno));
+    return 0;
+}
+
 int cli_cmd_spectrum(int argc, char **argv)
 {
     static const struct option longopts[] = {
@@ -224,6 +260,7 @@ int cli_cmd_spectrum(int argc, char **argv)
         {"count", required_argument, 0, 0}, {"reps", required_argument, 0, 0},
         {"freq", required_argument, 0, 0},  {"png", required_argument, 0, 0},
         {"csv", required_argument, 0, 0},   {"help", no_argument, 0, 0},
+        {"json", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
     const char *endpoint;
@@ -233,6 +270,7 @@ int cli_cmd_spectrum(int argc, char **argv)
     cli_seq_opts_init(&so);
     uint64_t count = 0, reps = 1, freq = 32;
     const char *png_path = NULL, *csv_path = NULL;
+    int json = 0;
     int first = 1, more;
     const char *name, *arg;
     while ((more = cli_next_option("spectrum", argc, argv, longopts, &first, &name, &arg)) > 0) {
@@ -260,13 +298,16 @@ int cli_cmd_spectrum(int argc, char **argv)
             png_path = arg;
         if (strcmp(name, "csv") == 0)
             csv_path = arg;
+        if (strcmp(name, "json") == 0)
+            json = 1;
     }
     if (more < 0)
         return CLI_EXIT_FAIL;
     if (count == 0)
         return cli_error("spectrum: --count N is required");
-    if (!png_path || !csv_path)
-        return cli_error("spectrum: --png FILE and --csv FILE are required");
+    if (!png_path && !csv_path && !json)
+        return cli_error("spectrum: nothing to write: give --png FILE, --csv FILE "
+                         "or --json");
     double side = 2.0 * (double)freq + 1.0;
     if ((double)count * (double)reps * side * side > SPEC_MAX_WORK)
         return cli_error("spectrum: count x reps x (2 freq + 1)^2 = %.3g "
@@ -304,9 +345,14 @@ int cli_cmd_spectrum(int argc, char **argv)
         rc = cli_error("spectrum: %s", qmc_strerror(err));
         goto done;
     }
-    rc = write_csv(csv_path, radial, kmax);
-    if (rc == 0)
+    if (csv_path)
+        rc = write_csv(csv_path, radial, kmax);
+    if (rc == 0 && png_path)
         rc = write_png(png_path, power, kmax);
+    /* Last, so that stdout names only files that were written. */
+    if (rc == 0 && json)
+        rc = print_json(&so.spec, count, (uint32_t)reps, kmax, radial, csv_path,
+                        png_path);
 done:
     qmc_client_close(client);
     free(power);
