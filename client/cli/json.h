@@ -20,8 +20,8 @@ void cli_json_num(FILE *f, const char *key, double v, int comma);
 void cli_json_u64(FILE *f, const char *key, uint64_t v, int comma);
 /* true or false. */
 void cli_json_bool(FILE *f, const char *key, int v, int comma);
-/* A string; '"' and '\' are escaped and control characters dropped.  NULL
- * is written as "". */
+/* A string; '"' and '\' are escaped, control characters written as
+ * \u00XX, other bytes as they are.  NULL is written as "". */
 void cli_json_str(FILE *f, const char *key, const char *v, int comma);
 /* An array of n numbers, each as cli_json_num writes it. */
 void cli_json_num_array(FILE *f, const char *key, const double *v, size_t n,

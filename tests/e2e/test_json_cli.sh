@@ -165,6 +165,16 @@ if [ "$(ls "$TMP" | grep -c '\.png$')" -eq 0 ]; then ok; else bad "spectrum --js
 if [ $? -eq 0 ] && [ ! -s "$TMP/out" ] && [ -s "$TMP/only.png" ] && [ ! -e "$TMP/s2.csv" ]
 then ok; else bad "spectrum --png alone: $(cat "$TMP/err")"; fi
 
+# ---- strings: the shared writer escapes what JSON requires ------------------------
+# A scene file whose name holds a quote, a backslash and a tab: integrate's
+# "integrand" member must give the exact name back.
+odd="$TMP/a\"b\\c	d.scene"
+printf 'point 0 0 0\nnormal 0 0 1\nbrdf lambert 0.8\nlight sphere center 1 0.5 5 radius 0.6 radiance 10\n' >"$odd"
+"$QMC" integrate --scene "$odd" --method rqmc --n 256 --json >"$TMP/i.json" 2>"$TMP/err"
+check "escaped string" "$TMP/i.json" '
+assert j["integrand"] == sys.argv[1], (j["integrand"], sys.argv[1])
+' "$odd"
+
 # ---- errors: one line, exit 2, nothing on stdout --------------------------------
 expect_fail() { # NAME STDIN-TEXT ARGS...
     name=$1 input=$2
