@@ -22,6 +22,9 @@ The convention (also written at the top of the tour in README.md):
     no ```sh block, is an error: nothing in the tour goes unchecked by
     accident.
 
+It also checks that every relative Markdown link in README.md,
+docs/DESIGN.md and docs/BENCHMARKS.md names a file that exists.
+
 RUN is a directory for the generated script and each block's stdout and
 stderr.  Prints one "ok ..." or "FAIL ..." line per check and a final
 "N passed, M failed"; exits 1 if anything failed.  Stopping what the tour
@@ -95,6 +98,20 @@ def parse(path):
             last_kind = "prose"
         i += 1
     return [tuple(b) for b in blocks]
+
+
+def broken_links(path):
+    """Relative Markdown links in path, [text](target), whose target does
+    not exist beside it: (line, target)."""
+    base = os.path.dirname(os.path.abspath(path))
+    bad = []
+    for n, line in enumerate(open(path, encoding="utf-8"), 1):
+        for target in re.findall(r"\]\(([^)\s]+)\)", line):
+            if re.match(r"^[a-z]+:", target) or target.startswith("#"):
+                continue
+            if not os.path.exists(os.path.join(base, target.split("#")[0])):
+                bad.append((n, target))
+    return bad
 
 
 def matches(expected, got):
@@ -173,6 +190,20 @@ def main():
         ok("the tour has %d shell blocks, %d with their output" % (len(blocks), n_shown))
     else:
         bad("the tour has only %d shell blocks and %d outputs" % (len(blocks), n_shown))
+
+    # The README and the notes it sends readers to point only at files
+    # that exist.
+    docs = os.path.join(os.path.dirname(os.path.abspath(readme)), "docs")
+    for doc in (readme, os.path.join(docs, "DESIGN.md"), os.path.join(docs, "BENCHMARKS.md")):
+        if not os.path.exists(doc):
+            bad("%s does not exist" % doc)
+            continue
+        links = broken_links(doc)
+        if links:
+            bad("%s links to missing files: %s" % (os.path.basename(doc), ", ".join(
+                "line %d: %s" % l for l in links)))
+        else:
+            ok("every relative link in %s resolves" % os.path.basename(doc))
 
     text, where = script(blocks, run)
     path = os.path.join(run, "tour.sh")
