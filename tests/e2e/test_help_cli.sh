@@ -21,7 +21,7 @@ failed=0
 ok() { passed=$((passed + 1)); }
 bad() { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
 
-COMMANDS="points discrepancy spectrum integrate merge ping stats help"
+COMMANDS="points discrepancy spectrum integrate merge ping stats compare stability help"
 
 # ---- the list ------------------------------------------------------------------
 if "$QMC" help >"$TMP/list" 2>"$TMP/err" && [ ! -s "$TMP/err" ]; then ok
