@@ -4,7 +4,9 @@
  *
  * Everything that can be checked is checked before the first byte goes
  * out, so an error never leaves partial output; with --out the file is
- * written beside its target and renamed into place only when complete.
+ * written as outfile.h says (beside its target, fsynced, renamed into place
+ * only when complete; devices and FIFOs written in place; read-only and
+ * other users' files refused).
  *
  * With --connect the points come from the daemon as a stream of chunks and
  * are written as they arrive, in the same bytes: the daemon checks the
@@ -18,6 +20,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "outfile.h"
 
 static const char points_help[] =
     "usage: qmc points --seq KIND [--dims D] [--count N] [--start I]\n"
@@ -32,7 +35,10 @@ static const char points_help[] =
     "  --count N         number of points (default 16)\n"
     "  --start I         first index (default 0)\n"
     "  --format F        csv (default) | f64 | f32 | u32\n"
-    "  --out FILE        write to FILE (atomically) instead of stdout\n"
+    "  --out FILE        write to FILE instead of stdout: a regular file is\n"
+    "                    replaced atomically (keeping its mode) and only when\n"
+    "                    complete; a device or FIFO is written in place; a\n"
+    "                    read-only file or another user's is refused\n"
     "\n";
 
 enum { BLOCK_BYTES = 1 << 20 };
@@ -147,33 +153,17 @@ static int emit(const points_src *src, uint64_t start, uint64_t count,
     return rc;
 }
 
-/* Writes through a temporary file in FILE's directory, renamed on success. */
+/* To --out FILE by outfile.h's rules: nothing replaced unless complete. */
 static int emit_to_file(const points_src *src, uint64_t start, uint64_t count,
                         int csv, qmc_format fmt, const char *path)
 {
-    size_t len = strlen(path);
-    char *tmp = malloc(len + 16);
-    if (!tmp)
-        return cli_error("out of memory");
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, ".tmp.XXXXXX", 12);
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        int rc = cli_error("--out: cannot create a file beside '%s': %s", path, strerror(errno));
-        free(tmp);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
-    int rc = f ? emit(src, start, count, csv, fmt, f) : cli_error("--out: %s", strerror(errno));
-    if (f && fclose(f) != 0 && rc == 0)
-        rc = cli_error("writing '%s': %s", path, strerror(errno));
-    if (!f)
-        close(fd);
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_error("--out: cannot rename into '%s': %s", path, strerror(errno));
-    if (rc != 0)
-        unlink(tmp);
-    free(tmp);
+    cli_outfile o;
+    if (cli_outfile_open(&o, path, "--out") != 0)
+        return CLI_EXIT_FAIL;
+    int rc = emit(src, start, count, csv, fmt, o.f);
+    if (rc == 0)
+        return cli_outfile_commit(&o);
+    cli_outfile_abort(&o);
     return rc;
 }
 
