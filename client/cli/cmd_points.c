@@ -9,9 +9,10 @@
  * other users' files refused).
  *
  * With --connect the points come from the daemon as a stream of chunks and
- * are written as they arrive, in the same bytes: the daemon checks the
- * range (its message becomes our error line) before its first chunk.  Only
- * a connection lost halfway can leave part of a stream on stdout.
+ * are written as they arrive, in the same bytes, in as many requests as the
+ * daemon's max-points needs (the client library splits them).  Only a
+ * connection lost halfway can leave part of a stream on stdout, and the
+ * error line then says how many points got through.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -179,11 +180,22 @@ static int emit_out(const points_src *src, uint64_t start, uint64_t count, int c
     return rc;
 }
 
-/* Remote mode: the spec is checked here as in-process (same messages); the
- * range and the daemon's limits are checked by the daemon. */
+/* Remote mode: the spec and the range are checked here as in-process (the
+ * same messages, and before anything is written: the client library splits
+ * a count past the daemon's max-points into several requests, and a range
+ * error found by a later one would come after the first one's output). */
 static int points_remote(const char *endpoint, const qmc_seq_spec *spec, uint64_t start,
                          uint64_t count, int csv, qmc_format fmt, const char *out)
 {
+    qmc_seq *seq = NULL;
+    char why[256];
+    int err = qmc_seq_new(spec, &seq);
+    if (err)
+        return cli_error("points: %s", qmc_strerror(err));
+    err = qmc_seq_range_check(seq, start, count, why, sizeof why);
+    qmc_seq_free(seq);
+    if (err)
+        return cli_error("%s", why);
     qmc_client *c = NULL;
     if (cli_remote_connect(endpoint, &c))
         return CLI_EXIT_FAIL;
