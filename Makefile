@@ -104,9 +104,11 @@ $(SOCLIENT): $(CLIENT_OBJ) $(PROTO_OBJ) $(CORE_OBJ)
 $(BUILD)/qmcclient.pc: client/qmcclient.pc.in
 	sed -e 's|@PREFIX@|$(PREFIX)|g' $< > $@
 
-# The CLI links the client library exactly as any other user would.
+# The CLI links the client library exactly as any other user would, and
+# libsodium for the SHA-256 digest of --part files.
+CLI_LIBS := -lsodium
 $(QMC): $(CLI_OBJ) $(ALL_LIBS)
-	$(CC) $(CFLAGS) -pthread -o $@ $(CLI_OBJ) $(ALL_LIBS) $(LDLIBS) $(LDFLAGS)
+	$(CC) $(CFLAGS) -pthread -o $@ $(CLI_OBJ) $(ALL_LIBS) $(CLI_LIBS) $(LDLIBS) $(LDFLAGS)
 
 $(QMCD): $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC)
 	$(CC) $(CFLAGS) -pthread -o $@ $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC) $(LDLIBS) \
