@@ -165,9 +165,17 @@ fuzz-lib:
 	@$(MAKE) --no-print-directory BUILD=build/fuzz CC=clang \
 	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a
 
+# Targets for readers outside the libraries name their sources and
+# libraries here: FUZZ_SRC_<stem>, FUZZ_LIBS_<stem>.
+FUZZ_SRC_csv  := client/cli/csv_read.c client/cli/linebuf.c
+FUZZ_SRC_part := client/cli/part_read.c client/cli/linebuf.c
+FUZZ_LIBS_part := -lsodium
+build/fuzz/fuzz_csv: $(FUZZ_SRC_csv)
+build/fuzz/fuzz_part: $(FUZZ_SRC_part)
+
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
-	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -o $@ $< \
-	  build/fuzz/libqmc.a -lm
+	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Iclient/cli -o $@ $< \
+	  $(FUZZ_SRC_$*) build/fuzz/libqmc.a -lm $(FUZZ_LIBS_$*)
 endif
 
 fuzz: deps-test $(FUZZ_BIN)

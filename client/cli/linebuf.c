@@ -29,10 +29,13 @@ int cli_linebuf_feed(cli_linebuf *lb, const char *data, size_t n, cli_line_fn on
     while (n > 0) {
         const char *nl = memchr(data, '\n', n);
         size_t take = nl ? (size_t)(nl - data) : n;
-        if (take > lb->max_bytes - lb->len)
-            return CLI_LINE_TOO_LONG;
-        if (memchr(data, '\0', take))
+        /* The first bad byte decides, wherever the pieces split: a NUL
+         * within the cap, else the byte past the cap. */
+        size_t room = lb->max_bytes - lb->len;
+        if (memchr(data, '\0', take < room ? take : room))
             return CLI_LINE_NUL;
+        if (take > room)
+            return CLI_LINE_TOO_LONG;
         memcpy(lb->buf + lb->len, data, take);
         lb->len += take;
         if (!nl)
