@@ -120,6 +120,15 @@ $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
 	$(CC) $(CFLAGS) -Icore -Iprotocol -Itests/unit $(DEPFLAGS) -o $@ $< $(UNIT_HELPER) \
 	  $(ALL_LIBS) -lcmocka -pthread $(LDLIBS) $(LDFLAGS)
 
+# The CLI's file pieces (pure readers, outfile.c) have a unit test that
+# links them beside the libraries.
+CLI_UNIT_SRC := client/cli/linebuf.c client/cli/csv_read.c client/cli/part_read.c \
+                client/cli/outfile.c client/cli/cli_common.c
+$(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
+	  -lcmocka -lsodium $(LDLIBS) $(LDFLAGS)
+
 # The plain suite: unit tests, end-to-end CLI tests, and the layering checks.
 test: all $(UNIT_BIN) lint-seams lint-symbols
 	@set -e; for t in $(UNIT_BIN); do echo "== $$t"; $$t; done

@@ -226,6 +226,12 @@ A="integrate --integrand genz-gaussian --dims 3 --method rqmc --n 8192 --reps 8 
 strip() { sed 's/"seconds":[^,]*,//'; }
 if "$QMC" merge --json "$m/p2" "$m/p1" | strip | cmp -s - "$(strip < "$m/whole" > "$m/w"; echo "$m/w")"
 then ok; else bad "merge of good parts differs from the single run"; fi
+# The writer's digest is SHA-256 of everything before its line (sha256sum
+# is the independent oracle).
+want=$(sed -n 's/^digest sha256 //p' "$m/p1")
+got=$(sed '/^digest sha256 /,$d' "$m/p1" | sha256sum | cut -d ' ' -f 1)
+if [ -n "$want" ] && [ "$want" = "$got" ] && [ "$(tail -n 1 "$m/p1")" = end ]; then ok
+else bad "part digest $want, sha256sum says $got"; fi
 # An edited sums line: the first block's first sum.
 awk '/^sums / && !done { $5 = "0x1p+30"; done = 1 } { print }' "$m/p1" > "$m/edited"
 cmp -s "$m/p1" "$m/edited" && bad "the edit changed nothing"
