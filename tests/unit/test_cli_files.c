@@ -287,12 +287,30 @@ static int count_temps(void)
     return n;
 }
 
-static void test_outfile(void **state)
+/* The directory is made and removed around the test, so a failed
+ * assertion leaves nothing behind either. */
+static mode_t saved_umask;
+
+static int outfile_setup(void **state)
 {
     (void)state;
     strcpy(dir, "/tmp/qmc-test-outfile-XXXXXX");
-    assert_non_null(mkdtemp(dir));
-    mode_t old = umask(022);
+    saved_umask = umask(022);
+    return mkdtemp(dir) ? 0 : -1;
+}
+
+static int outfile_teardown(void **state)
+{
+    (void)state;
+    umask(saved_umask);
+    char cmd[100];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static void test_outfile(void **state)
+{
+    (void)state;
     cli_outfile o;
     /* new: 0666 & ~umask; the target appears only on commit */
     assert_int_equal(cli_outfile_open(&o, path_in("a"), "--out"), 0);
@@ -344,10 +362,6 @@ static void test_outfile(void **state)
     assert_false(cli_outfile_same(path_in("a"), path_in("x")));
     assert_int_equal(symlink("a", path_in("link")), 0);
     assert_true(cli_outfile_same(path_in("a"), path_in("link")));
-    umask(old);
-    char cmd[100];
-    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-    assert_int_equal(system(cmd), 0);
 }
 
 int main(void)
@@ -356,7 +370,7 @@ int main(void)
         cmocka_unit_test(test_linebuf),
         cmocka_unit_test(test_csv),
         cmocka_unit_test(test_part),
-        cmocka_unit_test(test_outfile),
+        cmocka_unit_test_setup_teardown(test_outfile, outfile_setup, outfile_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
