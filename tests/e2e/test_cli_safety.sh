@@ -1,7 +1,7 @@
 #!/bin/sh
 # End-to-end checks that qmc loses, clobbers and half-writes nothing
 # (issue 15, findings 3 and 4, and the client side of 5):
-#   1. --out: devices and FIFOs written in place (/dev/null stays a device,
+#   1. --out: devices and FIFOs written in place (a null device stays one,
 #      as root too); read-only files refused even for root; another user's
 #      file refused (as that user's neighbour, via setpriv, and as root in a
 #      sticky directory); the target's mode kept, 0666 & ~umask for a new
@@ -64,9 +64,18 @@ echo old > "$d/keep.csv"; chmod 0604 "$d/keep.csv"
 if [ "$(mode_of "$d/keep.csv")" = 604 ] && cmp -s "$d/keep.csv" "$tmp/ref.csv"; then ok
 else bad "replaced file's mode: $(mode_of "$d/keep.csv")"; fi
 
-# /dev/null stays a character device (this suite may run as root)
-"$QMC" $P --out /dev/null 2> "$tmp/err"; rc=$?
-if [ $rc -eq 0 ] && [ -c /dev/null ]; then ok; else bad "--out /dev/null: $rc $(cat "$tmp/err")"; fi
+# A character device stays one, as root too.  As root the devices are our
+# own nodes in $tmp (the same major/minor as /dev/null and /dev/full): a
+# qmc that renamed over its target would otherwise replace the machine's
+# /dev/null.  Without root, /dev itself cannot be written, so use it.
+if [ "$(id -u)" -eq 0 ] && mknod -m 666 "$tmp/null" c 1 3 2>/dev/null &&
+   mknod -m 666 "$tmp/full" c 1 7 2>/dev/null; then
+    NULL_DEV=$tmp/null FULL_DEV=$tmp/full
+else
+    NULL_DEV=/dev/null FULL_DEV=/dev/full
+fi
+"$QMC" $P --out "$NULL_DEV" 2> "$tmp/err"; rc=$?
+if [ $rc -eq 0 ] && [ -c "$NULL_DEV" ]; then ok; else bad "--out $NULL_DEV: $rc $(cat "$tmp/err")"; fi
 
 # a FIFO is written through, and stays a FIFO (timeout only keeps a qmc
 # that renames over the FIFO from hanging the reader, and the suite)
@@ -187,8 +196,9 @@ one_error "--part > /dev/full"
 grep -q 'No space left' "$tmp/err" || bad "/dev/full message: $(cat "$tmp/err")"
 "$QMC" $P > /dev/full 2> "$tmp/err"; rc=$?
 one_error "points > /dev/full"
-"$QMC" $P --out /dev/full 2> "$tmp/err"; rc=$?
-one_error "points --out /dev/full"
+"$QMC" $P --out "$FULL_DEV" 2> "$tmp/err"; rc=$?
+one_error "points --out $FULL_DEV"
+[ -c "$FULL_DEV" ] && ok || bad "--out $FULL_DEV is no longer a device"
 "$QMC" discrepancy --method cd --in "$tmp/ref.csv" > /dev/full 2> "$tmp/err"; rc=$?
 one_error "discrepancy > /dev/full"
 
