@@ -279,6 +279,16 @@ static int put_in_place(cli_outfile *o)
     if (r != 0)
         return cli_error("%s: cannot rename into '%s': %s", o->what, o->target,
                          strerror(err));
+    /* The rename is durable once the directory is on disk too.  Best
+     * effort: the new file is in place already, and some file systems
+     * refuse fsync on a directory. */
+    char *dir = dir_of(o->target);
+    int dfd = dir ? open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC) : -1;
+    if (dfd >= 0) {
+        (void)fsync(dfd);
+        close(dfd);
+    }
+    free(dir);
     return 0;
 }
 

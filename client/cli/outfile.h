@@ -11,7 +11,7 @@
  *   - A regular target is replaced atomically: the bytes go to a temporary
  *     file beside it (same directory, so rename(2) cannot cross file
  *     systems), which is fsynced and then renamed over the target only
- *     when complete.  A symbolic link is followed: the file it names is
+ *     when complete (and the directory fsynced after, best effort).  A symbolic link is followed: the file it names is
  *     replaced and the link stays.
  *   - "Could not open it for writing" decides whether a regular target may
  *     be replaced.  It is refused when
