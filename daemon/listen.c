@@ -77,45 +77,70 @@ static int unix_live(const struct sockaddr_un *sa)
  * Serializes "probe, remove a stale file, bind, listen" between qmcd
  * instances starting on the same path at once: without it, one instance's
  * socket that is bound but not yet listening answers ECONNREFUSED and
- * would be taken for stale by the other.  The lock file (PATH.lock) is
- * left in place: removing it would reopen the race.  Returns the locked
- * descriptor, or -1 with a reason.
+ * would be taken for stale by the other.
+ *
+ * The holder removes the lock file (PATH.lock) before it lets go
+ * (unlock_path), so nothing is left beside the socket.  That is safe only
+ * because a waiter, once it holds the lock, checks that the file it locked
+ * is still the one at PATH.lock: a waiter that had opened the file before
+ * the holder removed it would otherwise hold a lock on a dead inode while a
+ * third instance locks a new file, and both would go on.  Returns the
+ * locked descriptor (its path in lock, of lock_bytes), or -1 with a reason.
  */
-static int lock_path(const char *path, char *why, size_t n)
+static int lock_path(const char *path, char *lock, size_t lock_bytes, char *why, size_t n)
 {
-    char lock[QMCD_PATH_BYTES + 8];
-    if (snprintf(lock, sizeof lock, "%s.lock", path) >= (int)sizeof lock) {
+    if (snprintf(lock, lock_bytes, "%s.lock", path) >= (int)lock_bytes) {
         snprintf(why, n, "unix:%s: path too long for its lock file", path);
         return -1;
     }
-    int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
-    if (fd < 0) {
-        snprintf(why, n, "unix:%s: cannot open %s: %s", path, lock, strerror(errno));
-        return -1;
+    for (;;) {
+        int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
+        if (fd < 0) {
+            snprintf(why, n, "unix:%s: cannot open %s: %s", path, lock, strerror(errno));
+            return -1;
+        }
+        if (flock(fd, LOCK_EX) != 0) {
+            snprintf(why, n, "unix:%s: cannot lock %s: %s", path, lock, strerror(errno));
+            close(fd);
+            return -1;
+        }
+        struct stat held, named;
+        if (fstat(fd, &held) == 0 && stat(lock, &named) == 0 &&
+            held.st_dev == named.st_dev && held.st_ino == named.st_ino)
+            return fd;
+        close(fd); /* the holder removed it while we waited: lock the new one */
     }
-    if (flock(fd, LOCK_EX) != 0) {
-        snprintf(why, n, "unix:%s: cannot lock %s: %s", path, lock, strerror(errno));
-        close(fd);
-        return -1;
-    }
-    return fd;
+}
+
+/* Removes the lock file while still holding it, then lets go. */
+static void unlock_path(int fd, const char *lock)
+{
+    unlink(lock);
+    close(fd);
 }
 
 static int open_unix(const char *path, qmcd_listener *l, char *why, size_t n)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    /* An empty path would bind Linux's abstract autobind namespace: a
+     * socket no file permission protects.  Refuse it. */
+    if (!path[0]) {
+        snprintf(why, n, "unix: needs a socket path (unix:/run/qmcd/qmcd.sock)");
+        return -1;
+    }
     if (strlen(path) >= sizeof sa.sun_path) {
         snprintf(why, n, "unix:%s: path longer than %zu bytes", path, sizeof sa.sun_path - 1);
         return -1;
     }
     strcpy(sa.sun_path, path);
-    int lock = lock_path(path, why, n);
+    char lock_file[QMCD_PATH_BYTES + 8];
+    int lock = lock_path(path, lock_file, sizeof lock_file, why, n);
     if (lock < 0)
         return -1;
     int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) {
         snprintf(why, n, "unix:%s: socket: %s", path, strerror(errno));
-        close(lock);
+        unlock_path(lock, lock_file);
         return -1;
     }
     for (int attempt = 0;; attempt++) {
@@ -161,11 +186,11 @@ static int open_unix(const char *path, qmcd_listener *l, char *why, size_t n)
     l->w.fd = fd;
     snprintf(l->path, sizeof l->path, "%s", path);
     snprintf(l->name, sizeof l->name, "unix:%s", path);
-    close(lock); /* listening now: the live socket speaks for itself */
+    unlock_path(lock, lock_file); /* listening now: the live socket speaks for itself */
     return 0;
 fail:
     close(fd);
-    close(lock);
+    unlock_path(lock, lock_file);
     return -1;
 }
 
@@ -191,6 +216,13 @@ static int split_host_port(const char *spec, char *host, size_t hn, char *port, 
     }
     if (strlen(colon + 1) >= pn || !colon[1])
         return -1;
+    /* Decimal 0..65535 only: getaddrinfo would take 70000 and bind port
+     * 70000 mod 65536 without a word. */
+    unsigned long v = 0;
+    for (const char *c = colon + 1; *c; c++) {
+        if (*c < '0' || *c > '9' || (v = v * 10 + (unsigned long)(*c - '0')) > 65535)
+            return -1;
+    }
     strcpy(port, colon + 1);
     return 0;
 }
@@ -199,7 +231,7 @@ static int open_tcp(const char *spec, qmcd_listener *l, char *why, size_t n)
 {
     char host[256], port[32];
     if (split_host_port(spec, host, sizeof host, port, sizeof port) != 0) {
-        snprintf(why, n, "tcp:%s: want tcp:HOST:PORT or tcp:[IPV6]:PORT", spec);
+        snprintf(why, n, "tcp:%s: want tcp:HOST:PORT or tcp:[IPV6]:PORT, PORT 0..65535", spec);
         return -1;
     }
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM,

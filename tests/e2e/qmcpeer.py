@@ -638,14 +638,16 @@ def sc_noread(addr, pid, limit_mb):
     base = vmrss_kb(pid)
     a.send(a.points_frame(a.rid(), dims=16, count=1 << 26))  # 8 GiB if it were all sent
     b = Peer(addr)
-    peak, served = base, 0
-    deadline = time.time() + 3.0
-    while time.time() < deadline:
-        if b.ping():
-            data, _ = b.points(dims=4, count=1000, start=served)
-            served += 1
+    # A fixed number of rounds, each checked, not "as many as fit in N
+    # seconds": a loaded machine must not turn this into a failure.
+    peak, served, rounds = base, 0, 200
+    for i in range(rounds):
+        data, _ = b.points(dims=4, count=1000, start=i)
+        ref, _ = b.points(dims=4, count=1, start=i)
+        served += b.ping() and len(data) == 1000 * 4 * 8 and data[:32] == ref
         peak = max(peak, vmrss_kb(pid))
-    check("a reader that never reads: others served (%d rounds)" % served, served > 10)
+    check("a reader that never reads: others served (%d of %d rounds)" % (served, rounds),
+          served == rounds)
     check("a reader that never reads: VmRSS bounded (%d kB -> peak %d kB, limit +%d kB)"
           % (base, peak, limit), peak - base < limit)
     st = b.stats()
@@ -655,17 +657,39 @@ def sc_noread(addr, pid, limit_mb):
 
 
 def sc_stall(addr):
-    """A reader that never reads is cut off after write-timeout-ms."""
+    """A reader that never reads is cut off after write-timeout-ms: the
+    stalled connection itself must reach end-of-stream (what the daemon had
+    queued, then EOF or a reset), not merely some counter move."""
     a = Peer(addr)
     a.s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     a.send(a.points_frame(a.rid(), dims=16, count=1 << 26))
     b = Peer(addr)
-    t0, cut = time.time(), False
-    while time.time() - t0 < 6 and not cut:
-        cut = b.stats().get("connections_timed_out", 0) >= 1
-        time.sleep(0.1)
-    check("a reader that never reads is closed after write-timeout-ms (%.1f s)"
-          % (time.time() - t0), cut and b.ping())
+    before = b.stats().get("connections_timed_out", 0)
+    # Wait for the daemon's timer by watching its counter (state), then
+    # drain the stalled socket: it must end.  The socket timeout only
+    # guards against a hang; it is never what the check measures.
+    for _ in range(600):
+        if b.stats().get("connections_timed_out", 0) > before:
+            break
+        time.sleep(0.05)
+    a.s.settimeout(30.0)
+    drained, closed = 0, False
+    try:
+        while True:
+            chunk = a.s.recv(1 << 20)
+            if not chunk:
+                closed = True
+                break
+            drained += len(chunk)
+            if drained > (1 << 31):
+                break
+    except ConnectionResetError:
+        closed = True
+    except socket.timeout:
+        closed = False
+    check("a reader that never reads: its own connection is closed (%d bytes queued before)"
+          % drained, closed and drained < (1 << 26) * 16 * 8)
+    check("a reader that never reads: others still served", b.ping())
     a.close()
     b.close()
 
@@ -694,8 +718,7 @@ def sc_cancel(addr):
           d["state"] == "running" and d["evals"] > 0, repr(d))
     c = p.rid()
     p.send(frame(MSG["JOB_CANCEL"], c, struct.pack("<Q", job)))
-    got_state = got_err = False
-    t0 = time.time()
+    got_state = got_err = got_result = False
     for _ in range(1000):
         t, r, d = p.recv()
         if t == "JOB_STATE" and r == c:
@@ -703,9 +726,14 @@ def sc_cancel(addr):
         elif t == "ERROR" and r == rid:
             got_err = d["code"] == ECANCELED
             break
+        elif t == "JOB_RESULT" and r == rid:
+            got_result = True
+            break
     check("JOB_CANCEL -> JOB_STATE cancelled", got_state)
-    check("cancelled INTEGRATE -> ERROR ECANCELED (%.2f s)" % (time.time() - t0),
-          got_err and time.time() - t0 < 2.0)
+    # Order, not time: the job (2^40 evaluations allowed) is answered
+    # ECANCELED instead of running on to a result.
+    check("cancelled INTEGRATE -> ERROR ECANCELED, never a result",
+          got_err and not got_result)
     t, r, d = p.call(frame(MSG["JOB_STATUS"], p.rid(), struct.pack("<Q", job)))
     check("finished job is unknown afterwards", t == "JOB_STATE" and d["state"] == "unknown")
     p.close()
@@ -1050,15 +1078,15 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
     check("its other requests are still answered", stuck.ping())
     # Meanwhile another ring client streams (the daemon's memory stays
     # flat: nothing piles up for the stalled one), and an inline one too.
-    peak, rounds = base, 0
-    deadline = time.time() + 1.0
+    peak, rounds, want = base, 0, 20
     y = shm_peer(addr, slots=4, slot_bytes=64 << 10)
-    while time.time() < deadline:
-        a, _, _ = y.points_shm(kind="sobol", dims=4, count=20000, start=rounds)
+    for i in range(want):
+        a, _, _ = y.points_shm(kind="sobol", dims=4, count=20000, start=i)
         rounds += other.ping() and len(a) == 20000 * 4 * 8
         peak = max(peak, vmrss_kb(pid))
-    b, _ = other.points(kind="sobol", dims=4, count=20000, start=rounds - 1)
-    check("others served while it stalls (%d rounds)" % rounds, rounds > 3 and a == b)
+    b, _ = other.points(kind="sobol", dims=4, count=20000, start=want - 1)
+    check("others served while it stalls (%d of %d rounds)" % (rounds, want),
+          rounds == want and a == b)
     check("daemon VmRSS flat while it stalls (%d kB -> peak %d kB, limit +%d kB)"
           % (base, peak, limit), peak - base < limit)
     # Releasing lets it go on: the next chunk lands in slot 0 again.

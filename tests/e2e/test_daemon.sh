@@ -203,6 +203,7 @@ if "$QMCD" --foreground --listen "unix:$B" > "$tmp/live.out" 2>&1; then
     bad "a second qmcd started on a live socket"
 elif [ "$(wc -l < "$tmp/live.out")" -eq 1 ] && grep -q "another server is listening" "$tmp/live.out"; then ok
 else bad "live socket: unexpected message: $(cat "$tmp/live.out")"; fi
+if [ ! -e "$B.lock" ]; then ok; else bad "lock file left beside a path qmcd refused"; fi
 kill -9 "$BPID"
 wait_exit "$BPID" 5
 [ -S "$B" ] || bad "the killed daemon's socket file is gone; no stale file to test"
@@ -213,8 +214,18 @@ peer ping "unix:$B"
 peer stall "unix:$B"
 peer shm_limits "unix:$B" 1048576
 kill -TERM "$B2PID"
-if wait_exit "$B2PID" 5 && wait "$B2PID" && [ ! -e "$B" ]; then ok
-else bad "idle daemon: SIGTERM did not exit 0 and remove its socket"; fi
+if wait_exit "$B2PID" 5 && wait "$B2PID" && [ ! -e "$B" ] && [ ! -e "$B.lock" ]; then ok
+else bad "idle daemon: SIGTERM did not exit 0 and remove its socket and lock file"; fi
+
+# 13b. Listener specs that would bind something else than was asked:
+# port 70000 (getaddrinfo takes it mod 65536), a non-numeric port, and
+# unix: with no path (Linux's abstract autobind, no file permissions).
+for spec in tcp:127.0.0.1:70000 tcp:127.0.0.1:http tcp:127.0.0.1:-1 unix:; do
+    if "$QMCD" --foreground --listen "$spec" > "$tmp/spec.out" 2>&1; then
+        bad "qmcd started with --listen $spec"
+    elif [ "$(wc -l < "$tmp/spec.out")" -eq 1 ] && grep -q "${spec%%:*}:" "$tmp/spec.out"; then ok
+    else bad "--listen $spec: unexpected message: $(cat "$tmp/spec.out")"; fi
+done
 
 # 14. Bad configuration: one line naming file and line, exit 2.
 printf 'threads = 2\nmax-points = lots\n' > "$tmp/bad.conf"
@@ -241,17 +252,19 @@ fi
 "$PY" "$PEER" sigterm_jobs "$U" "$tmp/jobs.marker" > "$tmp/sigterm.out" 2>&1 &
 PEERPID=$!
 if wait_file "$tmp/jobs.marker"; then
-    t0=$(date +%s%N)
     kill -TERM "$MAIN"
-    if wait_exit "$MAIN" 6; then
+    # State, not time: the jobs were answered (the peer checks ERROR
+    # ESHUTDOWN before the close), the exit status is 0 and nothing is
+    # left on disk.  The 60 s wait only guards against a hang.
+    if wait_exit "$MAIN" 60; then
         wait "$MAIN"
         st=$?
-        ms=$((($(date +%s%N) - t0) / 1000000))
-        if [ $st -eq 0 ] && [ $ms -lt 4000 ]; then ok
-        else bad "SIGTERM with jobs: exit $st after $ms ms"; fi
+        if [ $st -eq 0 ]; then ok
+        else bad "SIGTERM with jobs: exit $st"; fi
         if [ ! -e "$SOCK" ]; then ok; else bad "socket file left after SIGTERM"; fi
+        if [ ! -e "$SOCK.lock" ]; then ok; else bad "lock file left after SIGTERM"; fi
     else
-        bad "SIGTERM with jobs: still running after 6 s"
+        bad "SIGTERM with jobs: still running after 60 s"
     fi
 else
     bad "sigterm peer never got its jobs accepted"
