@@ -8,7 +8,7 @@
 #   make sanitize   the sanitized build and its tests only
 #   make demo       installs packages, builds, shows the sampling core
 #   make bench      installs peers (GSL, cubature), runs benchmarks
-#   make install    PREFIX=/usr/local DESTDIR=
+#   make install    PREFIX=/usr/local DESTDIR= (make uninstall reverses it)
 
 CC       ?= cc
 BUILD    ?= build
@@ -49,7 +49,7 @@ QMCD      := $(BUILD)/qmcd
 # Every layer's libraries, outermost first, for programs that use them all.
 ALL_LIBS  := $(LIBCLIENT) $(LIBPROTO) $(LIBQMC)
 
-.PHONY: all check test sanitize demo bench install clean deps-build deps-test \
+.PHONY: all check test sanitize demo bench install uninstall clean deps-build deps-test \
         deps-bench lint-seams lint-symbols fuzz
 .DELETE_ON_ERROR:
 
@@ -174,17 +174,18 @@ fuzz-lib:
 	@$(MAKE) --no-print-directory BUILD=build/fuzz CC=clang \
 	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a
 
-# Targets for readers outside the libraries name their sources and
-# libraries here: FUZZ_SRC_<stem>, FUZZ_LIBS_<stem>.
-FUZZ_SRC_csv  := client/cli/csv_read.c client/cli/linebuf.c
-FUZZ_SRC_part := client/cli/part_read.c client/cli/linebuf.c
-FUZZ_LIBS_part := -lsodium
-build/fuzz/fuzz_csv: $(FUZZ_SRC_csv)
-build/fuzz/fuzz_part: $(FUZZ_SRC_part)
-
+# A target that drives code outside libqmc lists those sources as
+# FUZZ_SRCS_<name> (compiled into it with its flags), and any library it
+# needs as FUZZ_LIBS_<name>.
+FUZZ_SRCS_config := daemon/config.c daemon/log.c
+FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
+FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
+FUZZ_LIBS_part   := -lsodium
+build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
+build/fuzz/fuzz_part: $(FUZZ_SRCS_part)
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
-	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Iclient/cli -o $@ $< \
-	  $(FUZZ_SRC_$*) build/fuzz/libqmc.a -lm $(FUZZ_LIBS_$*)
+	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -Iclient/cli -o $@ $< \
+	  $(FUZZ_SRCS_$*) build/fuzz/libqmc.a -lm $(FUZZ_LIBS_$*)
 endif
 
 fuzz: deps-test $(FUZZ_BIN)
@@ -248,19 +249,72 @@ deps-demo:
 	@sh build-aux/deps.sh demo
 
 # ---- install -----------------------------------------------------------------
+# Everything an operator needs (docs/OPERATIONS.md): the programs, the
+# libraries (static, and shared with its soname and symlinks), headers and
+# qmcclient.pc, man pages, the systemd units with this PREFIX's paths, the
+# sysusers.d/tmpfiles.d snippets for the user qmcd, the client group qmc
+# and /run/qmcd, the example config (never overwritten), bash completion.
+# `make uninstall` removes the same files; a config that differs from the
+# shipped example is left in place (and said so).
+SYSCONFDIR  ?= /etc
+BINDIR      ?= $(PREFIX)/bin
+SBINDIR     ?= $(PREFIX)/sbin
+LIBDIR      ?= $(PREFIX)/lib
+INCLUDEDIR  ?= $(PREFIX)/include
+MANDIR      ?= $(PREFIX)/share/man
+DOCDIR      ?= $(PREFIX)/share/doc/qmcd
+UNITDIR     ?= $(PREFIX)/lib/systemd/system
+SYSUSERSDIR ?= $(PREFIX)/lib/sysusers.d
+TMPFILESDIR ?= $(PREFIX)/lib/tmpfiles.d
+BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
+SO_VERSION  := 0.1.0
+SO_NAME     := libqmcclient.so.0
+D := $(DESTDIR)
+INSTALL_DOCS := README.md NOTICE docs/OPERATIONS.md systemd/haproxy-qmcd.cfg
+
 install: all
-	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib \
-	  $(DESTDIR)$(PREFIX)/include/qmc $(DESTDIR)$(PREFIX)/share/doc/qmcd
-	install -d $(DESTDIR)$(PREFIX)/sbin $(DESTDIR)$(PREFIX)/lib/pkgconfig
-	install -m 0755 $(QMC) $(DESTDIR)$(PREFIX)/bin/qmc
-	if [ -f $(QMCD) ]; then install -m 0755 $(QMCD) $(DESTDIR)$(PREFIX)/sbin/qmcd; fi
-	install -m 0644 $(ALL_LIBS) $(DESTDIR)$(PREFIX)/lib/
-	install -m 0755 $(SOCLIENT) $(DESTDIR)$(PREFIX)/lib/libqmcclient.so.0
-	ln -sf libqmcclient.so.0 $(DESTDIR)$(PREFIX)/lib/libqmcclient.so
-	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmcclient.pc.in \
-	  > $(DESTDIR)$(PREFIX)/lib/pkgconfig/qmcclient.pc
-	install -m 0644 include/qmc/*.h $(DESTDIR)$(PREFIX)/include/qmc/
-	install -m 0644 README.md NOTICE $(DESTDIR)$(PREFIX)/share/doc/qmcd/
+	install -d $(D)$(BINDIR) $(D)$(SBINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/qmc \
+	  $(D)$(MANDIR)/man1 $(D)$(MANDIR)/man5 $(D)$(MANDIR)/man8 $(D)$(DOCDIR) \
+	  $(D)$(UNITDIR) $(D)$(SYSUSERSDIR) $(D)$(TMPFILESDIR) $(D)$(BASHCOMPDIR) \
+	  $(D)$(SYSCONFDIR)/qmcd
+	install -m 0755 $(QMC) $(D)$(BINDIR)/qmc
+	install -m 0755 $(QMCD) $(D)$(SBINDIR)/qmcd
+	install -m 0644 $(ALL_LIBS) $(D)$(LIBDIR)/
+	install -m 0755 $(SOCLIENT) $(D)$(LIBDIR)/libqmcclient.so.$(SO_VERSION)
+	ln -sf libqmcclient.so.$(SO_VERSION) $(D)$(LIBDIR)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(D)$(LIBDIR)/libqmcclient.so
+	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmcclient.pc.in > $(D)$(LIBDIR)/pkgconfig/qmcclient.pc
+	install -m 0644 include/qmc/*.h $(D)$(INCLUDEDIR)/qmc/
+	install -m 0644 man/qmc.1 $(D)$(MANDIR)/man1/
+	install -m 0644 man/qmcd.conf.5 $(D)$(MANDIR)/man5/
+	install -m 0644 man/qmcd.8 $(D)$(MANDIR)/man8/
+	install -m 0644 $(INSTALL_DOCS) $(D)$(DOCDIR)/
+	sed -e 's|@SBINDIR@|$(SBINDIR)|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
+	  systemd/qmcd.service > $(D)$(UNITDIR)/qmcd.service
+	install -m 0644 systemd/qmcd.socket $(D)$(UNITDIR)/
+	install -m 0644 systemd/qmcd-modbus-rtu.conf $(D)$(DOCDIR)/
+	install -m 0644 systemd/sysusers-qmcd.conf $(D)$(SYSUSERSDIR)/qmcd.conf
+	install -m 0644 systemd/tmpfiles-qmcd.conf $(D)$(TMPFILESDIR)/qmcd.conf
+	install -m 0644 client/completion/qmc $(D)$(BASHCOMPDIR)/qmc
+	install -m 0644 systemd/qmcd.conf $(D)$(DOCDIR)/qmcd.conf.example
+	@if [ -e $(D)$(SYSCONFDIR)/qmcd/qmcd.conf ]; then \
+	  echo "install: keeping the existing $(D)$(SYSCONFDIR)/qmcd/qmcd.conf"; \
+	else install -m 0644 systemd/qmcd.conf $(D)$(SYSCONFDIR)/qmcd/qmcd.conf; fi
+
+uninstall:
+	rm -f $(D)$(BINDIR)/qmc $(D)$(SBINDIR)/qmcd
+	rm -f $(addprefix $(D)$(LIBDIR)/,$(notdir $(ALL_LIBS)) libqmcclient.so \
+	  $(SO_NAME) libqmcclient.so.$(SO_VERSION) pkgconfig/qmcclient.pc)
+	rm -f $(addprefix $(D)$(INCLUDEDIR)/qmc/,$(notdir $(wildcard include/qmc/*.h)))
+	rm -f $(D)$(MANDIR)/man1/qmc.1 $(D)$(MANDIR)/man5/qmcd.conf.5 $(D)$(MANDIR)/man8/qmcd.8
+	rm -f $(addprefix $(D)$(DOCDIR)/,$(notdir $(INSTALL_DOCS)) qmcd-modbus-rtu.conf \
+	  qmcd.conf.example)
+	rm -f $(D)$(UNITDIR)/qmcd.service $(D)$(UNITDIR)/qmcd.socket \
+	  $(D)$(SYSUSERSDIR)/qmcd.conf $(D)$(TMPFILESDIR)/qmcd.conf $(D)$(BASHCOMPDIR)/qmc
+	@c=$(D)$(SYSCONFDIR)/qmcd/qmcd.conf; \
+	  if [ -e $$c ] && cmp -s $$c systemd/qmcd.conf; then rm -f $$c; \
+	  elif [ -e $$c ]; then echo "uninstall: $$c was modified; left in place"; fi
+	-rmdir $(D)$(INCLUDEDIR)/qmc $(D)$(DOCDIR) $(D)$(SYSCONFDIR)/qmcd 2>/dev/null
 
 clean:
 	rm -rf build

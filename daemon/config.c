@@ -55,6 +55,7 @@ void qmcd_usage(void)
     fputs("usage: qmcd [--config FILE] [--listen unix:PATH | tcp:HOST:PORT]... [--threads N]\n"
           "            [--foreground] [--log-level err|warning|notice|info|debug]\n"
           "            [--ready-file PATH] [--KEY VALUE]...\n"
+          "       qmcd --check-config [--config FILE] [--KEY VALUE]...\n"
           "\n"
           "Serves quasi-Monte Carlo points and integration jobs (see protocol/PROTOCOL.md).\n"
           "Default listener: unix:$RUNTIME_DIRECTORY/qmcd.sock or unix:/run/qmcd/qmcd.sock.\n"
@@ -62,6 +63,8 @@ void qmcd_usage(void)
           "logged and written to --ready-file).  Without --foreground qmcd forks and the\n"
           "parent exits once the child is ready.  SIGHUP re-reads the config (limits and\n"
           "log level); SIGTERM drains jobs for shutdown-timeout-ms and exits 0.\n"
+          "--check-config reads FILE (default " QMCD_DEFAULT_CONFIG ") and the flags,\n"
+          "prints what is wrong (file and line) and exits 2, or exits 0 if all is well.\n"
           "\n"
           "KEY (also usable as `key = value` in the config file), default:\n",
           stdout);
@@ -102,57 +105,97 @@ bad:
     return -1;
 }
 
-/* Sets one key.  Returns 0, or -1 with the problem in why. */
+static int set_log_level(qmcd_config *c, const char *key, const char *value, char *why,
+                         size_t n)
+{
+    (void)key;
+    int l = qmcd_log_level_parse(value);
+    if (l < 0) {
+        snprintf(why, n, "log-level: '%s' is not one of err, warning, notice, info, debug",
+                 value);
+        return -1;
+    }
+    c->log_level = l;
+    return 0;
+}
+
+static int set_foreground(qmcd_config *c, const char *key, const char *value, char *why,
+                          size_t n)
+{
+    (void)key;
+    if (strcmp(value, "yes") == 0 || strcmp(value, "1") == 0 || strcmp(value, "true") == 0)
+        c->foreground = 1;
+    else if (strcmp(value, "no") == 0 || strcmp(value, "0") == 0 || strcmp(value, "false") == 0)
+        c->foreground = 0;
+    else {
+        snprintf(why, n, "foreground: '%s' is not yes or no", value);
+        return -1;
+    }
+    return 0;
+}
+
+/* Copies a non-empty path-like value into dst (QMCD_PATH_BYTES). */
+static int set_path(char *dst, const char *key, const char *value, char *why, size_t n)
+{
+    if (strlen(value) >= QMCD_PATH_BYTES || !value[0]) {
+        snprintf(why, n, "%s: value is empty or longer than %d bytes", key,
+                 QMCD_PATH_BYTES - 1);
+        return -1;
+    }
+    strcpy(dst, value);
+    return 0;
+}
+
+static int set_ready_file(qmcd_config *c, const char *key, const char *value, char *why,
+                          size_t n)
+{
+    return set_path(c->ready_file, key, value, why, n);
+}
+
+static int set_listen(qmcd_config *c, const char *key, const char *value, char *why, size_t n)
+{
+    if (c->n_listen == QMCD_MAX_LISTEN) {
+        snprintf(why, n, "listen: more than %d listeners", QMCD_MAX_LISTEN);
+        return -1;
+    }
+    if (strncmp(value, "unix:", 5) != 0 && strncmp(value, "tcp:", 4) != 0) {
+        snprintf(why, n, "listen: '%s' is neither unix:PATH nor tcp:HOST:PORT", value);
+        return -1;
+    }
+    if (set_path(c->listen[c->n_listen], key, value, why, n) != 0)
+        return -1;
+    c->n_listen++;
+    return 0;
+}
+
+/* Keys that are not plain numbers: one row each, with the function that
+ * checks and stores the value.  A new key is one row here and its setter
+ * (plus a line in systemd/qmcd.conf and man/qmcd.conf.5). */
+typedef struct text_key {
+    const char *key;
+    int (*set)(qmcd_config *c, const char *key, const char *value, char *why, size_t n);
+} text_key;
+
+static const text_key text_keys[] = {
+    {"log-level", set_log_level},
+    {"foreground", set_foreground},
+    {"ready-file", set_ready_file},
+    {"listen", set_listen},
+};
+#define N_TEXT_KEYS (sizeof text_keys / sizeof text_keys[0])
+
+/* Sets one key.  Returns 0, or -1 with the problem in why (-2 when the key
+ * is unknown, so that a flag can say "unknown option"). */
 static int set_key(qmcd_config *c, const char *key, const char *value, char *why, size_t n)
 {
     for (size_t i = 0; i < N_NUM_KEYS; i++)
         if (strcmp(key, num_keys[i].key) == 0)
             return parse_num(value, &num_keys[i], num_field(c, &num_keys[i]), why, n);
-    if (strcmp(key, "log-level") == 0) {
-        int l = qmcd_log_level_parse(value);
-        if (l < 0) {
-            snprintf(why, n, "log-level: '%s' is not one of err, warning, notice, info, debug",
-                     value);
-            return -1;
-        }
-        c->log_level = l;
-        return 0;
-    }
-    if (strcmp(key, "foreground") == 0) {
-        if (strcmp(value, "yes") == 0 || strcmp(value, "1") == 0 || strcmp(value, "true") == 0)
-            c->foreground = 1;
-        else if (strcmp(value, "no") == 0 || strcmp(value, "0") == 0 ||
-                 strcmp(value, "false") == 0)
-            c->foreground = 0;
-        else {
-            snprintf(why, n, "foreground: '%s' is not yes or no", value);
-            return -1;
-        }
-        return 0;
-    }
-    if (strcmp(key, "ready-file") == 0 || strcmp(key, "listen") == 0) {
-        if (strlen(value) >= QMCD_PATH_BYTES || !value[0]) {
-            snprintf(why, n, "%s: value is empty or longer than %d bytes", key,
-                     QMCD_PATH_BYTES - 1);
-            return -1;
-        }
-        if (key[0] == 'r') {
-            strcpy(c->ready_file, value);
-            return 0;
-        }
-        if (c->n_listen == QMCD_MAX_LISTEN) {
-            snprintf(why, n, "listen: more than %d listeners", QMCD_MAX_LISTEN);
-            return -1;
-        }
-        if (strncmp(value, "unix:", 5) != 0 && strncmp(value, "tcp:", 4) != 0) {
-            snprintf(why, n, "listen: '%s' is neither unix:PATH nor tcp:HOST:PORT", value);
-            return -1;
-        }
-        strcpy(c->listen[c->n_listen++], value);
-        return 0;
-    }
+    for (size_t i = 0; i < N_TEXT_KEYS; i++)
+        if (strcmp(key, text_keys[i].key) == 0)
+            return text_keys[i].set(c, key, value, why, n);
     snprintf(why, n, "unknown key '%s' (see qmcd --help)", key);
-    return -1;
+    return -2;
 }
 
 static char *trim(char *s)
@@ -165,22 +208,30 @@ static char *trim(char *s)
     return s;
 }
 
-static int load_file(const char *path, qmcd_config *c, char *why, size_t n)
+/* The longest line a config file may have, newline excluded. */
+#define QMCD_CONFIG_LINE_BYTES 1022
+
+int qmcd_config_parse(const char *name, const char *text, size_t len, qmcd_config *c,
+                      char *why, size_t n)
 {
-    FILE *f = fopen(path, "r");
-    if (!f) {
-        snprintf(why, n, "%s: cannot open: %s", path, strerror(errno));
-        return -1;
-    }
-    char line[1024], problem[400];
+    char line[QMCD_CONFIG_LINE_BYTES + 2], problem[400];
     unsigned lineno = 0;
-    int rc = 0;
-    while (fgets(line, sizeof line, f)) {
+    size_t pos = 0;
+    while (pos < len) {
         lineno++;
-        if (!strchr(line, '\n') && !feof(f)) {
-            snprintf(why, n, "%s:%u: line longer than %zu bytes", path, lineno, sizeof line - 2);
-            rc = -1;
-            break;
+        const char *nl = memchr(text + pos, '\n', len - pos);
+        size_t line_len = nl ? (size_t)(nl - (text + pos)) : len - pos;
+        if (line_len > QMCD_CONFIG_LINE_BYTES) {
+            snprintf(why, n, "%s:%u: line longer than %d bytes", name, lineno,
+                     QMCD_CONFIG_LINE_BYTES);
+            return -1;
+        }
+        memcpy(line, text + pos, line_len);
+        line[line_len] = '\0';
+        pos += line_len + (nl ? 1 : 0);
+        if (memchr(line, '\0', line_len)) {
+            snprintf(why, n, "%s:%u: a NUL byte in the line", name, lineno);
+            return -1;
         }
         char *hash = strchr(line, '#');
         if (hash)
@@ -190,22 +241,45 @@ static int load_file(const char *path, qmcd_config *c, char *why, size_t n)
             continue;
         char *eq = strchr(s, '=');
         if (!eq) {
-            snprintf(why, n, "%s:%u: expected 'key = value', got '%.60s'", path, lineno, s);
-            rc = -1;
-            break;
+            snprintf(why, n, "%s:%u: expected 'key = value', got '%.60s'", name, lineno, s);
+            return -1;
         }
         *eq = '\0';
         char *key = trim(s), *value = trim(eq + 1);
         if (set_key(c, key, value, problem, sizeof problem) != 0) {
-            snprintf(why, n, "%s:%u: %s", path, lineno, problem);
-            rc = -1;
-            break;
+            snprintf(why, n, "%s:%u: %s", name, lineno, problem);
+            return -1;
         }
     }
-    if (rc == 0 && ferror(f)) {
-        snprintf(why, n, "%s: read error", path);
-        rc = -1;
+    return 0;
+}
+
+/* Reads the whole file (at most QMCD_CONFIG_MAX_BYTES) and parses it. */
+static int load_file(const char *path, qmcd_config *c, char *why, size_t n)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        snprintf(why, n, "%s: cannot open: %s", path, strerror(errno));
+        return -1;
     }
+    char *text = malloc(QMCD_CONFIG_MAX_BYTES + 1);
+    int rc = -1;
+    if (!text) {
+        snprintf(why, n, "%s: out of memory", path);
+        goto out;
+    }
+    size_t len = fread(text, 1, QMCD_CONFIG_MAX_BYTES + 1, f);
+    if (ferror(f)) {
+        snprintf(why, n, "%s: read error: %s", path, strerror(errno));
+        goto out;
+    }
+    if (len > QMCD_CONFIG_MAX_BYTES) {
+        snprintf(why, n, "%s: larger than %d bytes", path, QMCD_CONFIG_MAX_BYTES);
+        goto out;
+    }
+    rc = qmcd_config_parse(path, text, len, c, why, n);
+out:
+    free(text);
     fclose(f);
     return rc;
 }
@@ -226,7 +300,9 @@ int qmcd_args_parse(int argc, char **argv, qmcd_args *args)
                    (unsigned long long)qmc_sobol_table_hash());
             return 1;
         }
-        if (strcmp(a, "--config") == 0) {
+        if (strcmp(a, "--check-config") == 0) {
+            args->check_only = 1;
+        } else if (strcmp(a, "--config") == 0) {
             if (i + 1 >= argc) {
                 fprintf(stderr, "qmcd: --config needs a FILE\n");
                 return -1;
@@ -264,6 +340,8 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
             c->foreground = 1;
             continue;
         }
+        if (strcmp(key, "check-config") == 0 && !eq)
+            continue;
         if (eq) {
             value = eq + 1;
         } else if (i + 1 < args->argc) {
@@ -279,7 +357,12 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
             c->n_listen = 0;
             listen_seen = 1;
         }
-        if (set_key(c, key, value, problem, sizeof problem) != 0) {
+        int rc = set_key(c, key, value, problem, sizeof problem);
+        if (rc == -2) {
+            snprintf(why, n, "unknown option '--%s' (see qmcd --help)", key);
+            return -1;
+        }
+        if (rc != 0) {
             snprintf(why, n, "--%s", problem);
             return -1;
         }
@@ -290,7 +373,10 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
 int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t why_bytes)
 {
     qmcd_config_defaults(c);
-    if (args->config_path && load_file(args->config_path, c, why, why_bytes) != 0)
+    const char *path = args->config_path;
+    if (!path && args->check_only)
+        path = QMCD_DEFAULT_CONFIG;
+    if (path && load_file(path, c, why, why_bytes) != 0)
         return -1;
     if (apply_flags(args, c, why, why_bytes) != 0)
         return -1;

@@ -4,10 +4,15 @@
 #ifndef QMCD_CONFIG_H
 #define QMCD_CONFIG_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define QMCD_MAX_LISTEN 16
 #define QMCD_PATH_BYTES 256
+/* A config file larger than this is refused (the example is ~4 KiB). */
+#define QMCD_CONFIG_MAX_BYTES (1 << 20)
+/* The file --check-config reads when no --config is given. */
+#define QMCD_DEFAULT_CONFIG "/etc/qmcd/qmcd.conf"
 
 /* Numeric settings: X(key, field, default, min, max, reloadable).  The key
  * is both the config-file key and the flag (--key). */
@@ -46,6 +51,7 @@ typedef struct qmcd_config {
  * (flags win over the file, on every load). */
 typedef struct qmcd_args {
     const char *config_path;       /* NULL: no file */
+    int check_only;                /* --check-config: validate and exit */
     int argc;
     char **argv;                   /* the option words, re-parsed on reload */
 } qmcd_args;
@@ -69,6 +75,16 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
 /* Logs the settings that differ between old and fresh but need a restart,
  * and copies those from old into fresh (a reload never changes them). */
 void qmcd_config_keep_fixed(const qmcd_config *old, qmcd_config *fresh);
+
+/*
+ * Parses config text (len bytes, not necessarily NUL-terminated; name is
+ * the file name used in messages) over *c, which holds defaults or an
+ * earlier layer.  No I/O: the fuzz target calls it on raw bytes.  Returns
+ * 0, or -1 with one line ("NAME:LINE: problem") in why; *c may then hold
+ * the keys before the bad line.
+ */
+int qmcd_config_parse(const char *name, const char *text, size_t len, qmcd_config *c,
+                      char *why, size_t why_bytes);
 
 void qmcd_usage(void);
 

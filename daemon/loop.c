@@ -6,9 +6,14 @@
  * in signal context); the worker pool reports finished jobs through an
  * eventfd; a timerfd ticks every QMCD_TICK_MS for deadlines (handshake,
  * idle, partial frame, write stall, job time limit, shutdown) and for
- * JOB_PROGRESS.  A sweep per tick over the connections is O(connections),
+ * JOB_PROGRESS, and for the systemd watchdog ping.  A sweep per tick over the connections is O(connections),
  * which at the configured maximum is still far cheaper than a timer heap's
  * bookkeeping per byte received.
+ *
+ * The watchdog ping (WATCHDOG=1, when systemd set WatchdogSec=) is sent
+ * from the tick handler, so it stops when the loop stops turning: a loop
+ * wedged in a handler is killed and restarted by systemd, which a ping
+ * from a thread of its own would hide.
  *
  * This file must not know the protocol: it dispatches events to watches
  * and decides when the process stops.
@@ -16,10 +21,12 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <signal.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/epoll.h>
 #include <sys/signalfd.h>
 #include <sys/timerfd.h>
+#include <systemd/sd-daemon.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -88,7 +95,11 @@ static void begin_drain(qmcd_server *srv, const char *why)
                 (unsigned long long)srv->n_jobs, (unsigned long long)srv->n_conns,
                 (unsigned long long)srv->cfg.shutdown_timeout_ms);
     qmcd_listeners_close(srv);
-    qmcd_main_notify(srv, "STOPPING=1");
+    char status[160];
+    snprintf(status, sizeof status, "STOPPING=1\nSTATUS=stopping (%s): %llu job(s) get %llu ms",
+             why, (unsigned long long)srv->n_jobs,
+             (unsigned long long)srv->cfg.shutdown_timeout_ms);
+    qmcd_main_notify(srv, status);
 }
 
 static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -148,6 +159,24 @@ static void on_tick(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     qmcd_conns_tick(srv, now);
     if (srv->draining)
         drain_step(srv, now);
+    if (srv->watchdog_ms && now >= srv->watchdog_next_ms) {
+        qmcd_main_notify(srv, "WATCHDOG=1");
+        srv->watchdog_next_ms = now + srv->watchdog_ms;
+    }
+}
+
+/* WATCHDOG_USEC (and WATCHDOG_PID, if set, naming us) turn the pings on, at
+ * half the timeout as sd_watchdog_enabled(3) advises, never below a tick. */
+static void watchdog_init(qmcd_server *srv)
+{
+    uint64_t usec = 0;
+    srv->watchdog_ms = 0;
+    if (sd_watchdog_enabled(0, &usec) <= 0 || usec == 0)
+        return;
+    int64_t ms = (int64_t)(usec / 2000);
+    srv->watchdog_ms = ms < QMCD_TICK_MS ? QMCD_TICK_MS : ms;
+    srv->watchdog_next_ms = qmcd_now_ms();
+    qmcd_info("systemd watchdog: WATCHDOG=1 every %lld ms", (long long)srv->watchdog_ms);
 }
 
 int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
@@ -180,6 +209,7 @@ int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
     srv->tick.on_event = on_tick;
     if ((err = qmcd_loop_add(srv, &srv->tick, EPOLLIN)) != 0)
         return err;
+    watchdog_init(srv);
     srv->done.fd = pool_eventfd;
     srv->done.on_event = qmcd_jobs_on_done;
     return qmcd_loop_add(srv, &srv->done, EPOLLIN);

@@ -41,10 +41,15 @@ void qmcd_main_notify(qmcd_server *srv, const char *state)
 void qmcd_main_reload(qmcd_server *srv)
 {
     qmcd_config fresh;
-    char why[512];
-    qmcd_main_notify(srv, "RELOADING=1");
+    char why[512], status[600];
+    /* MONOTONIC_USEC lets a systemd with Type=notify-reload match this
+     * RELOADING=1 to the signal it sent; older ones ignore it. */
+    snprintf(status, sizeof status, "RELOADING=1\nMONOTONIC_USEC=%llu",
+             (unsigned long long)qmcd_now_us());
+    qmcd_main_notify(srv, status);
     if (qmcd_config_load(&srv->args, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration: %s", why);
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
@@ -52,8 +57,9 @@ void qmcd_main_reload(qmcd_server *srv)
         srv->stats.reloads++;
         qmcd_notice("configuration reloaded%s%s", srv->args.config_path ? " from " : "",
                     srv->args.config_path ? srv->args.config_path : "");
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; configuration reloaded");
     }
-    qmcd_main_notify(srv, "READY=1");
+    qmcd_main_notify(srv, status);
 }
 
 /* Writes the bound addresses, one per line, to path via a rename so that a
@@ -143,6 +149,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "qmcd: %s\n", why);
         return 2;
     }
+    if (srv.args.check_only) {
+        printf("qmcd: %s: configuration is valid\n",
+               srv.args.config_path ? srv.args.config_path : QMCD_DEFAULT_CONFIG);
+        return 0;
+    }
     qmcd_log_set_level(srv.cfg.log_level);
     /* Signals are read from a signalfd: block them before any thread
      * exists so every worker inherits the mask. */
@@ -160,6 +171,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "qmcd: %s\n", why);
         free(srv.listeners);
         return 1;
+    }
+    /* Under systemd (a notify socket is given) qmcd never forks: the unit
+     * tracks the process it started, and a forked child's notifications
+     * would come from a PID that NotifyAccess=main ignores. */
+    if (!srv.cfg.foreground && getenv("NOTIFY_SOCKET")) {
+        qmcd_info("NOTIFY_SOCKET is set: staying in the foreground");
+        srv.cfg.foreground = 1;
     }
     int ready_fd = -1;
     static char config_abs[QMCD_PATH_BYTES]; /* outlives main's frame use */

@@ -44,6 +44,8 @@ struct qmcd_server {
     int64_t drain_deadline_ms; /* then cancel what still runs */
     int jobs_cancelled_for_exit;
     int quit;                  /* leave the loop */
+    int64_t watchdog_ms;       /* WATCHDOG=1 this often from the tick; 0: off */
+    int64_t watchdog_next_ms;
 };
 
 /* CLOCK_MONOTONIC in milliseconds and microseconds. */

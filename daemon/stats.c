@@ -30,8 +30,10 @@ static uint64_t bucket_top(unsigned b)
 
 void qmcd_stats_latency(qmcd_stats *s, int64_t micros)
 {
-    s->lat[bucket_of(micros < 0 ? 0 : (uint64_t)micros)]++;
+    uint64_t us = micros < 0 ? 0 : (uint64_t)micros;
+    s->lat[bucket_of(us)]++;
     s->lat_count++;
+    s->lat_sum_us += us;
 }
 
 int qmcd_stats_answered(qmcd_stats *s, int64_t t0_us)
@@ -81,6 +83,27 @@ static const struct {
 QMC_MSG_MAP(QMCD__REQ_FITS)
 #undef QMCD__REQ_FITS
 
+/* The names of the exported cumulative buckets, 2^k - 1 us for k = 4, 6,
+ * ..., 34 (QMCD_LAT_EXPORT_BUCKETS of them). */
+static const char *const export_bucket_names[QMCD_LAT_EXPORT_BUCKETS] = {
+    "latency_le_us_15",         "latency_le_us_63",         "latency_le_us_255",
+    "latency_le_us_1023",       "latency_le_us_4095",       "latency_le_us_16383",
+    "latency_le_us_65535",      "latency_le_us_262143",     "latency_le_us_1048575",
+    "latency_le_us_4194303",    "latency_le_us_16777215",   "latency_le_us_67108863",
+    "latency_le_us_268435455",  "latency_le_us_1073741823", "latency_le_us_4294967295",
+    "latency_le_us_17179869183",
+};
+
+/* Requests of at most 2^k - 1 us: the fine buckets whose top is <= that
+ * (2^k - 1 is the top of bucket (k - 3) * 8 + 7, so the count is exact). */
+static uint64_t count_at_most(const qmcd_stats *s, unsigned k)
+{
+    uint64_t edge = (1ull << k) - 1, n = 0;
+    for (unsigned b = 0; b < QMCD_LAT_BUCKETS && bucket_top(b) <= edge; b++)
+        n += s->lat[b];
+    return n;
+}
+
 uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t jobs_open,
                             qmc_stat *e, uint32_t cap)
 {
@@ -109,6 +132,9 @@ uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t j
     QMCD__PUT("latency_p50_us", qmcd_stats_quantile_us(s, 0.50));
     QMCD__PUT("latency_p99_us", qmcd_stats_quantile_us(s, 0.99));
     QMCD__PUT("latency_p999_us", qmcd_stats_quantile_us(s, 0.999));
+    QMCD__PUT("latency_sum_us", s->lat_sum_us);
+    for (unsigned i = 0; i < QMCD_LAT_EXPORT_BUCKETS; i++)
+        QMCD__PUT(export_bucket_names[i], count_at_most(s, 4 + 2 * i));
 #undef QMCD__PUT
     return n;
 }

@@ -45,6 +45,7 @@ typedef struct qmcd_stats {
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;
+    uint64_t lat_sum_us;       /* sum of the recorded latencies */
     int64_t pending[QMCD_LAT_PENDING]; /* start times answered this loop turn */
     uint32_t n_pending;
 } qmcd_stats;
@@ -66,6 +67,12 @@ void qmcd_stats_end_turn(qmcd_stats *s, int64_t now_us);
 /* The latency below which a fraction q (0..1) of requests fell: the upper
  * edge of the bucket holding that rank, 0 with no requests. */
 uint64_t qmcd_stats_quantile_us(const qmcd_stats *s, double q);
+
+/* STATS also reports the histogram coarsely, for Prometheus
+ * (`qmc stats --format prometheus`): latency_le_us_T counts the requests
+ * of at most T microseconds, for T = 2^k - 1, k = 4, 6, ..., 34, each an
+ * exact edge of the fine buckets; latency_count is the +Inf bucket. */
+#define QMCD_LAT_EXPORT_BUCKETS 16
 
 /*
  * Fills entries (names point at static strings) with every counter and the
