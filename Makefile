@@ -22,6 +22,10 @@ CFLAGS   := -std=c11 $(WARN) -ffp-contract=off -fPIC $(OPT) \
             -D_POSIX_C_SOURCE=200809L -Iinclude $(EXTRA_CFLAGS)
 LDLIBS   := -lm
 DAEMON_LIBS := $(shell pkg-config --libs libsystemd 2>/dev/null)
+# libmodbus: the daemon's RTU line only (daemon/modbus_rtu.c); the Modbus
+# tests' C client and the benchmark's peer server link it too.
+MODBUS_CFLAGS := $(shell pkg-config --cflags libmodbus 2>/dev/null)
+MODBUS_LIBS   := $(shell pkg-config --libs libmodbus 2>/dev/null)
 DEPFLAGS  = -MMD -MP
 
 CORE_SRC    := $(wildcard core/*.c)
@@ -76,6 +80,7 @@ $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
                                                 -mavx512bw -mavx512dq
 endif
+$(BUILD)/daemon/modbus_rtu.o: PRIVATE_INC := $(MODBUS_CFLAGS)
 $(BUILD)/%.o: %.c
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(PRIVATE_INC) $(DEPFLAGS) -c $< -o $@
@@ -112,7 +117,7 @@ $(QMC): $(CLI_OBJ) $(ALL_LIBS)
 
 $(QMCD): $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC)
 	$(CC) $(CFLAGS) -pthread -o $@ $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC) $(LDLIBS) \
-	  $(DAEMON_LIBS) $(LDFLAGS)
+	  $(DAEMON_LIBS) $(MODBUS_LIBS) $(LDFLAGS)
 
 # ---- tests --------------------------------------------------------------------
 $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
@@ -129,8 +134,14 @@ $(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL
 	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
 	  -lcmocka -lsodium $(LDLIBS) $(LDFLAGS)
 
+# The Modbus e2e test's libmodbus master (tests/e2e/test_modbus.sh).
+MODBUS_CLIENT := $(BUILD)/tests/modbus-client
+$(MODBUS_CLIENT): tests/e2e/modbus_client.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
+
 # The plain suite: unit tests, end-to-end CLI tests, and the layering checks.
-test: all $(UNIT_BIN) lint-seams lint-symbols
+test: all $(UNIT_BIN) $(MODBUS_CLIENT) lint-seams lint-symbols
 	@set -e; for t in $(UNIT_BIN); do echo "== $$t"; $$t; done
 	@set -e; for t in tests/e2e/test_*.sh; do echo "== $$t"; \
 	  QMC=$(abspath $(QMC)) QMCD=$(abspath $(QMCD)) BUILD=$(abspath $(BUILD)) sh $$t; done
@@ -177,7 +188,7 @@ fuzz-lib:
 # A target that drives code outside libqmc lists those sources as
 # FUZZ_SRCS_<name> (compiled into it with its flags), and any library it
 # needs as FUZZ_LIBS_<name>.
-FUZZ_SRCS_config := daemon/config.c daemon/log.c
+FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
 FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
 FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
 FUZZ_LIBS_part   := -lsodium
@@ -216,9 +227,24 @@ $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(DEPFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
 
+# The Modbus benchmark: a load generator (raw sockets, so a dribble is one
+# byte per write) and the libmodbus peer server it is measured against.
+MODBUS_LOAD := $(BUILD)/bench/modbus-load
+MODBUS_PEER := $(BUILD)/bench/modbus-static-server
+$(MODBUS_LOAD): bench/modbus_load.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -o $@ $< -pthread $(LDFLAGS)
+$(MODBUS_PEER): bench/modbus_static_server.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
+
+.PHONY: bench-modbus
+bench-modbus: all $(MODBUS_LOAD) $(MODBUS_PEER)
+	sh bench/bench_modbus.sh $(BUILD)
+
 # BENCH_QUICK=1 make bench: integration budgets up to 1e6 only.
 BENCH_INT_DIMS := 2 5 10 20 30
-bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD)
+bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_seq $(BUILD)/bench/seq.csv
 	gnuplot -e "csv='$(BUILD)/bench/seq.csv'; png='$(BUILD)/bench/seq-rates.png'" \
 	  bench/seq_rates.gp
@@ -232,6 +258,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD)
 	  d=$$d; png='$(BUILD)/bench/integrate-time-d$$d.png'" bench/integrate_time.gp || exit 1; done
 	@echo "charts: $(BUILD)/bench/integrate-{conv-d*,gl,time-d*}.png"
 	sh bench/bench_daemon.sh $(BUILD)
+	sh bench/bench_modbus.sh $(BUILD)
 
 # ---- demo ------------------------------------------------------------------------
 demo: deps-build deps-demo

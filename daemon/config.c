@@ -20,6 +20,7 @@
 
 #include "config.h"
 #include "log.h"
+#include "modbus_spec.h"
 #include "qmc/seq.h"
 
 typedef struct num_key {
@@ -65,6 +66,11 @@ void qmcd_usage(void)
           "log level); SIGTERM drains jobs for shutdown-timeout-ms and exits 0.\n"
           "--check-config reads FILE (default " QMCD_DEFAULT_CONFIG ") and the flags,\n"
           "prints what is wrong (file and line) and exits 2, or exits 0 if all is well.\n"
+          "\n"
+          "Modbus (protocol/MODBUS.md), off by default, repeatable:\n"
+          "  --modbus tcp:HOST:PORT          e.g. tcp:127.0.0.1:1502, tcp:[::1]:1502\n"
+          "  --modbus rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT]\n"
+          "  --modbus-allow CIDR,...         clients let in; required off loopback\n"
           "\n"
           "KEY (also usable as `key = value` in the config file), default:\n",
           stdout);
@@ -168,6 +174,47 @@ static int set_listen(qmcd_config *c, const char *key, const char *value, char *
     return 0;
 }
 
+static int set_modbus(qmcd_config *c, const char *key, const char *value, char *why, size_t n)
+{
+    if (c->n_modbus == QMCD_MAX_LISTEN) {
+        snprintf(why, n, "modbus: more than %d transports", QMCD_MAX_LISTEN);
+        return -1;
+    }
+    qmcd_modbus_rtu_spec rtu;
+    if (qmcd_modbus_spec_parse(value, NULL, &rtu, why, n) < 0)
+        return -1;
+    if (set_path(c->modbus[c->n_modbus], key, value, why, n) != 0)
+        return -1;
+    c->n_modbus++;
+    return 0;
+}
+
+/* Repeated keys add to the list, kept as validated text. */
+static int set_modbus_allow(qmcd_config *c, const char *key, const char *value, char *why,
+                            size_t n)
+{
+    (void)key;
+    qmcd_cidr nets[QMCD_MODBUS_MAX_ALLOW];
+    unsigned n_nets = 0;
+    if (qmcd_modbus_allow_parse(c->modbus_allow, nets, &n_nets, why, n) != 0 ||
+        qmcd_modbus_allow_parse(value, nets, &n_nets, why, n) != 0)
+        return -1;
+    if (n_nets == 0) {
+        snprintf(why, n, "modbus-allow: no address given");
+        return -1;
+    }
+    size_t have = strlen(c->modbus_allow);
+    if (have + 1 + strlen(value) >= sizeof c->modbus_allow) {
+        snprintf(why, n, "modbus-allow: the list is longer than %zu bytes",
+                 sizeof c->modbus_allow - 1);
+        return -1;
+    }
+    if (have)
+        c->modbus_allow[have++] = ',';
+    strcpy(c->modbus_allow + have, value);
+    return 0;
+}
+
 /* Keys that are not plain numbers: one row each, with the function that
  * checks and stores the value.  A new key is one row here and its setter
  * (plus a line in systemd/qmcd.conf and man/qmcd.conf.5). */
@@ -181,6 +228,8 @@ static const text_key text_keys[] = {
     {"foreground", set_foreground},
     {"ready-file", set_ready_file},
     {"listen", set_listen},
+    {"modbus", set_modbus},
+    {"modbus-allow", set_modbus_allow},
 };
 #define N_TEXT_KEYS (sizeof text_keys / sizeof text_keys[0])
 
@@ -319,7 +368,7 @@ int qmcd_args_parse(int argc, char **argv, qmcd_args *args)
 static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t n)
 {
     char problem[400];
-    int listen_seen = 0;
+    int listen_seen = 0, modbus_seen = 0, modbus_allow_seen = 0;
     for (int i = 1; i < args->argc; i++) {
         const char *a = args->argv[i];
         if (strncmp(a, "--", 2) != 0) {
@@ -357,6 +406,15 @@ static int apply_flags(const qmcd_args *args, qmcd_config *c, char *why, size_t 
             c->n_listen = 0;
             listen_seen = 1;
         }
+        /* So do --modbus and --modbus-allow the file's. */
+        if (strcmp(key, "modbus") == 0 && !modbus_seen) {
+            c->n_modbus = 0;
+            modbus_seen = 1;
+        }
+        if (strcmp(key, "modbus-allow") == 0 && !modbus_allow_seen) {
+            c->modbus_allow[0] = '\0';
+            modbus_allow_seen = 1;
+        }
         int rc = set_key(c, key, value, problem, sizeof problem);
         if (rc == -2) {
             snprintf(why, n, "unknown option '--%s' (see qmcd --help)", key);
@@ -379,6 +437,10 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
     if (path && load_file(path, c, why, why_bytes) != 0)
         return -1;
     if (apply_flags(args, c, why, why_bytes) != 0)
+        return -1;
+    /* A rule across keys: a Modbus listener off loopback needs an allow
+     * list.  Numeric hosts are judged here, so --check-config sees it. */
+    if (qmcd_modbus_check_exposure(c, why, why_bytes) != 0)
         return -1;
     return 0;
 }
@@ -407,4 +469,14 @@ void qmcd_config_keep_fixed(const qmcd_config *old, qmcd_config *fresh)
     fresh->n_listen = old->n_listen;
     memcpy(fresh->ready_file, old->ready_file, sizeof fresh->ready_file);
     fresh->foreground = old->foreground;
+    /* The Modbus transports and their allow list are fixed at start. */
+    int modbus_changed = old->n_modbus != fresh->n_modbus ||
+                         strcmp(old->modbus_allow, fresh->modbus_allow) != 0;
+    for (unsigned i = 0; !modbus_changed && i < old->n_modbus; i++)
+        modbus_changed = strcmp(old->modbus[i], fresh->modbus[i]) != 0;
+    if (modbus_changed)
+        qmcd_warn("reload: modbus and modbus-allow change only on restart; keeping them");
+    memcpy(fresh->modbus, old->modbus, sizeof fresh->modbus);
+    fresh->n_modbus = old->n_modbus;
+    memcpy(fresh->modbus_allow, old->modbus_allow, sizeof fresh->modbus_allow);
 }

@@ -9,6 +9,7 @@
 
 #define QMCD_MAX_LISTEN 16
 #define QMCD_PATH_BYTES 256
+#define QMCD_MODBUS_ALLOW_BYTES 2048
 /* A config file larger than this is refused (the example is ~4 KiB). */
 #define QMCD_CONFIG_MAX_BYTES (1 << 20)
 /* The file --check-config reads when no --config is given. */
@@ -34,7 +35,10 @@
     X("write-timeout-ms", write_timeout_ms, 60000, 100, 86400000ull, 1)         \
     X("out-buffer-bytes", out_buffer_bytes, 4u << 20, 2u << 20, 1u << 30, 1)    \
     X("max-shm-bytes", max_shm_bytes, 64u << 20, 0, 1u << 30, 1)                \
-    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)
+    X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
+    X("modbus-max-connections", modbus_max_connections, 256, 1, 1u << 16, 1)   \
+    X("modbus-frame-timeout-ms", modbus_frame_timeout_ms, 5000, 50, 3600000, 1) \
+    X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;
@@ -45,6 +49,11 @@ typedef struct qmcd_config {
     char ready_file[QMCD_PATH_BYTES];
     char listen[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
     unsigned n_listen;
+    /* Modbus transports (daemon/modbus*.c): tcp:HOST:PORT or rtu:...; and
+     * the clients allowed in, as the `modbus-allow` text (validated). */
+    char modbus[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
+    unsigned n_modbus;
+    char modbus_allow[QMCD_MODBUS_ALLOW_BYTES];
 } qmcd_config;
 
 /* Flags as given, kept so SIGHUP can re-apply them over the re-read file

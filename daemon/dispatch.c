@@ -16,6 +16,7 @@
 #include "dispatch.h"
 #include "jobs.h"
 #include "log.h"
+#include "modbus_bridge.h"
 #include "points.h"
 #include "qmc/seq.h"
 
@@ -88,6 +89,8 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     qmc_msg r = {.type = QMC_MSG_STATS_REPLY, .request_id = m->request_id};
     r.u.stats.count = qmcd_stats_entries(&srv->stats, srv->n_conns, srv->n_jobs, entries,
                                          QMC_PROTO_MAX_STATS);
+    r.u.stats.count += qmcd_modbus_stats(srv, entries + r.u.stats.count,
+                                         QMC_PROTO_MAX_STATS - r.u.stats.count);
     r.u.stats.entries = entries;
     if (qmcd_conn_send(c, &r) == 0)
         record(c, t0);

@@ -227,7 +227,7 @@ static int split_host_port(const char *spec, char *host, size_t hn, char *port, 
     return 0;
 }
 
-static int open_tcp(const char *spec, qmcd_listener *l, char *why, size_t n)
+int qmcd_listen_tcp(const char *spec, qmcd_listener *l, char *why, size_t n)
 {
     char host[256], port[32];
     if (split_host_port(spec, host, sizeof host, port, sizeof port) != 0) {
@@ -327,7 +327,7 @@ int qmcd_listeners_open(qmcd_server *srv, char *why, size_t why_bytes)
         else if (strncmp(spec, "unix:", 5) == 0)
             rc = open_unix(spec + 5, l, why, why_bytes);
         else
-            rc = open_tcp(spec + 4, l, why, why_bytes);
+            rc = qmcd_listen_tcp(spec + 4, l, why, why_bytes);
         if (rc != 0)
             goto fail;
         srv->n_listeners++;

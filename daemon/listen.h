@@ -21,6 +21,10 @@ struct qmcd_listener {
  * writes one line into why.  Returns 0 or -1.
  */
 int qmcd_listeners_open(qmcd_server *srv, char *why, size_t why_bytes);
+/* Binds and listens on "HOST:PORT" / "[V6]:PORT" (port 0: the kernel's
+ * choice) into l->w.fd and l->name; the Modbus listeners share it.
+ * Returns 0, or -1 with one line in why. */
+int qmcd_listen_tcp(const char *hostport, qmcd_listener *l, char *why, size_t why_bytes);
 /* Registers the listeners with the loop. */
 int qmcd_listeners_start(qmcd_server *srv);
 /* Closes the listeners and removes the socket files we created. */

@@ -36,6 +36,7 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
+#include "modbus_bridge.h"
 
 int64_t qmcd_now_ms(void)
 {
@@ -95,6 +96,7 @@ static void begin_drain(qmcd_server *srv, const char *why)
                 (unsigned long long)srv->n_jobs, (unsigned long long)srv->n_conns,
                 (unsigned long long)srv->cfg.shutdown_timeout_ms);
     qmcd_listeners_close(srv);
+    qmcd_modbus_drain(srv);
     char status[160];
     snprintf(status, sizeof status, "STOPPING=1\nSTATUS=stopping (%s): %llu job(s) get %llu ms",
              why, (unsigned long long)srv->n_jobs,
@@ -157,6 +159,7 @@ static void on_tick(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             qmcd_loop_mod(srv, &srv->listeners[i].w, EPOLLIN) == 0)
             srv->listeners[i].paused = 0;
     qmcd_conns_tick(srv, now);
+    qmcd_modbus_tick(srv, now);
     if (srv->draining)
         drain_step(srv, now);
     if (srv->watchdog_ms && now >= srv->watchdog_next_ms) {
@@ -244,6 +247,7 @@ int qmcd_loop_run(qmcd_server *srv)
         /* Handlers may free connections; deferred frees happen here, after
          * every event of this round has been dispatched. */
         qmcd_conns_reap(srv);
+        qmcd_modbus_reap(srv);
         if (srv->stats.n_pending)
             qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
     }

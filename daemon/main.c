@@ -29,6 +29,7 @@
 #include "log.h"
 #include "loop.h"
 #include "main.h"
+#include "modbus_bridge.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -74,6 +75,7 @@ static int write_ready_file(const qmcd_server *srv, const char *path)
     fprintf(f, "pid %ld\n", (long)getpid());
     for (unsigned i = 0; i < srv->n_listeners; i++)
         fprintf(f, "%s\n", srv->listeners[i].name);
+    qmcd_modbus_write_names(srv, f);
     if (fclose(f) != 0 || rename(tmp, path) != 0) {
         unlink(tmp);
         return -1;
@@ -172,6 +174,12 @@ int main(int argc, char **argv)
         free(srv.listeners);
         return 1;
     }
+    if (qmcd_modbus_open(&srv, why, sizeof why) != 0) {
+        fprintf(stderr, "qmcd: %s\n", why);
+        qmcd_listeners_close(&srv);
+        free(srv.listeners);
+        return 1;
+    }
     /* Under systemd (a notify socket is given) qmcd never forks: the unit
      * tracks the process it started, and a forked child's notifications
      * would come from a PID that NotifyAccess=main ignores. */
@@ -199,6 +207,7 @@ int main(int argc, char **argv)
         }
         if (bad) {
             fprintf(stderr, "qmcd: a path is too long to make absolute before detaching\n");
+            qmcd_modbus_close(&srv);
             qmcd_listeners_close(&srv);
             return 1;
         }
@@ -214,6 +223,8 @@ int main(int argc, char **argv)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
+    if (!err) /* after the fork: the serial threads start here */
+        err = qmcd_modbus_start(&srv);
     if (err) {
         qmcd_err("cannot start: %s", strerror(-err));
         rc = 1;
@@ -243,6 +254,7 @@ out:
     while (srv.conns)
         qmcd_conn_close(srv.conns, "exiting");
     qmcd_conns_reap(&srv);
+    qmcd_modbus_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
     qmcd_loop_close(&srv);

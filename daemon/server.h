@@ -16,6 +16,7 @@ typedef struct qmcd_conn qmcd_conn;
 typedef struct qmcd_pool qmcd_pool;
 typedef struct qmcd_seqcache qmcd_seqcache;
 typedef struct qmcd_listener qmcd_listener;
+typedef struct qmcd_modbus qmcd_modbus;
 
 /* epoll_event.data.ptr points at one of these: the handler runs on the
  * loop thread with the events epoll reported. */
@@ -40,6 +41,7 @@ struct qmcd_server {
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
     qmcd_stats stats;
+    qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
     int draining;              /* SIGTERM seen: no new work */
     int64_t drain_deadline_ms; /* then cancel what still runs */
     int jobs_cancelled_for_exit;
