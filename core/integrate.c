@@ -12,6 +12,7 @@
 
 #include "interrupt.h"
 #include "msg.h"
+#include "rule_evidence.h"
 #include "vegas_map.h"
 #include "qmc/integrate.h"
 #include "qmc/quad.h"
@@ -479,9 +480,97 @@ static qmc_sampling_spec auto_rqmc(const qmc_integrate_spec *spec, const qmc_int
     return r;
 }
 
+/* auto's RQMC: a VEGAS map when its pilot pays (no control variate), then
+ * the replicates; *f becomes f over the map, *map is the caller's to free,
+ * and the pilot's evaluations leave s->max_evals. */
+static int auto_rqmc_setup(qmc_integrate_spec *s, const qmc_integrand **f,
+                           const qmc_integrand *g, qmc_integrate_report *rep, qmc__vmap **map,
+                           uint64_t *pilot, qmc__msg *why)
+{
+    *map = NULL;
+    *pilot = 0;
+    if (!g) {
+        int err = auto_map(s, *f, map, pilot, rep->auto_reason, sizeof rep->auto_reason);
+        if (err) {
+            qmc__msg_str(why, err == QMC_ECANCELED ? "interrupted"
+                                                   : "out of memory for the VEGAS map");
+            return err;
+        }
+        s->max_evals -= *pilot;
+    }
+    /* f's own smoothness: f J over a map declares the jumps at its bin
+     * edges, but they are not what the split is for. */
+    s->sampling = auto_rqmc(s, *f, g, rep->auto_reason, sizeof rep->auto_reason);
+    if (*map)
+        *f = qmc__vmap_integrand(*map);
+    s->n_given = 1;
+    return 0;
+}
+
+/* Below 2 strata an axis "stratified" is one stratum of one point at best
+ * (k = 1: the largest k^d <= n at d >= 13 for the default 4096 points):
+ * an infinite bar that looked like a result.  Refused instead. */
+static int stratified_refuse(uint64_t n, uint32_t d, qmc__msg *why)
+{
+    uint64_t need = 1;
+    for (uint32_t j = 0; j < d && need <= QMC_SEQ_MAX_INDEX; j++)
+        need *= 2;
+    if (n >= need)
+        return 0;
+    qmc__msg_set(why, "stratified: 2 strata an axis in ", d, " dims need 2^d = ");
+    if (need <= QMC_SEQ_MAX_INDEX)
+        qmc__msg_u64(why, need);
+    else
+        qmc__msg_str(why, "more than 2^32");
+    qmc__msg_str(why, " points; n = ");
+    qmc__msg_u64(why, n);
+    qmc__msg_str(why, " gives 1 stratum an axis and no error bar: use lhs or rqmc, or raise "
+                      "--n");
+    return QMC_ECOUNT;
+}
+
+static int run_sampling_method(const qmc_integrate_spec *s, const qmc_integrand *f,
+                               const qmc_integrand *g, qmc_block_runner runner,
+                               void *runner_ctx, qmc_integrate_report *rep, qmc__msg *why)
+{
+    qmc_sampling_spec q = s->sampling;
+    q.sampler = sampler_of(s->method);
+    if (q.n == 0 || q.n > QMC_SEQ_MAX_INDEX) {
+        qmc__msg_set(why, "n = ", q.n, " points is outside 1..2^32");
+        return QMC_ECOUNT;
+    }
+    if (q.sampler == QMC_SAMPLER_STRATIFIED) {
+        if (!s->n_given)
+            q.n = stratified_count(q.n, f->dims);
+        int err = stratified_refuse(q.n, f->dims, why);
+        if (err)
+            return err;
+    }
+    return run_sampling(s, q, f, g, runner, runner_ctx, rep, why);
+}
+
+static int run_rule(const qmc_integrate_spec *s, const qmc_integrand *f,
+                    qmc_integrate_report *rep, qmc__msg *why);
+
+static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
+                          qmc_integrate_report *rep, char *why, size_t why_bytes);
+
+/* Every method, then the integrand's own audit of the result (evidence
+ * only it can gather: a scene's MIS shares). */
 int qmc_integrate(const qmc_integrate_spec *spec, const qmc_integrand *f,
                   const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
                   qmc_integrate_report *rep, char *why, size_t why_bytes)
+{
+    int err = integrate_once(spec, f, g, runner, runner_ctx, rep, why, why_bytes);
+    if (err == 0 && f->audit)
+        rep->res.flags |= f->audit(f->ctx, &rep->res);
+    return err;
+}
+
+static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
+                          qmc_integrate_report *rep, char *why, size_t why_bytes)
 {
     qmc__msg m;
     qmc__msg_init(&m, why, why_bytes);
@@ -524,61 +613,85 @@ int qmc_integrate(const qmc_integrate_spec *spec, const qmc_integrand *f,
         if (s.tol_abs == 0 && s.tol_rel == 0)
             s.tol_rel = 1e-6; /* auto always stops adaptively */
         if (s.method == QMC_METHOD_RQMC) {
-            if (!g) {
-                int err = auto_map(&s, f, &map, &pilot, rep->auto_reason,
-                                   sizeof rep->auto_reason);
-                if (err) {
-                    qmc__msg_str(&m, err == QMC_ECANCELED ? "interrupted"
-                                                           : "out of memory for the VEGAS map");
-                    return err;
-                }
-                s.max_evals -= pilot;
-            }
-            /* f's own smoothness: f J over a map declares the jumps at its
-             * bin edges, but they are not what the split is for. */
-            s.sampling = auto_rqmc(&s, f, g, rep->auto_reason, sizeof rep->auto_reason);
-            if (map)
-                f = qmc__vmap_integrand(map);
-            s.n_given = 1;
+            int err = auto_rqmc_setup(&s, &f, g, rep, &map, &pilot, &m);
+            if (err)
+                return err;
         }
     }
     if (is_sampling(s.method)) {
-        qmc_sampling_spec q = s.sampling;
-        q.sampler = sampler_of(s.method);
-        if (q.n == 0 || q.n > QMC_SEQ_MAX_INDEX) {
-            qmc__vmap_free(map);
-            qmc__msg_set(&m, "n = ", q.n, " points is outside 1..2^32");
-            return QMC_ECOUNT;
-        }
-        if (q.sampler == QMC_SAMPLER_STRATIFIED && !s.n_given)
-            q.n = stratified_count(q.n, f->dims);
-        int err = run_sampling(&s, q, f, g, runner, runner_ctx, rep, &m);
+        int err = run_sampling_method(&s, f, g, runner, runner_ctx, rep, &m);
         rep->res.evals += pilot;
         qmc__vmap_free(map);
         return err;
     }
+    /* The rule integrates f watched (rule_evidence.h): its nodes' values
+     * are the only evidence of mass the rule stepped over. */
+    qmc__node_stats nodes;
+    qmc__node_watch watch;
+    qmc__node_watch_init(&watch, f, &nodes);
+    int err = run_rule(&s, &watch.view, rep, &m);
+    if (err)
+        return err;
+    rep->res.flags |= qmc__rule_evidence_flags(&rep->res, &nodes);
+    /* auto chose the rule on what f declares, and the rule cannot see what
+     * its nodes missed: more work, not a flag, while the budget lasts -
+     * RQMC with what is left, whose points land between any grid's nodes
+     * and whose adaptive rounds grow until they find the mass.  Only when
+     * at least half the budget is left (a rule that saw nothing stops
+     * after a few dozen nodes); a rule that spent most of it unresolved
+     * keeps its flagged answer rather than trade it for a thinner one. */
+    const uint64_t spent = rep->res.evals;
+    if (spec->method == QMC_METHOD_AUTO && (rep->res.flags & QMC_FLAG_UNRESOLVED) &&
+        !(rep->res.flags & QMC_FLAG_NONFINITE) && spent <= spec->max_evals / 2 &&
+        spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16) {
+        reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
+                      " nodes left the integrand unresolved (levels agreeing near zero): "
+                      "rqmc with the rest of the budget");
+        s.method = QMC_METHOD_RQMC;
+        s.max_evals = spec->max_evals - spent;
+        s.sampling = spec->sampling;
+        s.n_given = spec->n_given;
+        memset(&rep->res, 0, sizeof rep->res);
+        rep->detail[0] = '\0';
+        rep->method_used = QMC_METHOD_RQMC;
+        err = auto_rqmc_setup(&s, &f, g, rep, &map, &pilot, &m);
+        if (err)
+            return err;
+        err = run_sampling_method(&s, f, g, runner, runner_ctx, rep, &m);
+        rep->res.evals += pilot + spent;
+        qmc__vmap_free(map);
+        return err;
+    }
+    return 0;
+}
+
+/* A deterministic rule (s->method is one), flags on a declared kink or jump
+ * included. */
+static int run_rule(const qmc_integrate_spec *s, const qmc_integrand *f,
+                    qmc_integrate_report *rep, qmc__msg *why)
+{
     int err;
-    switch (s.method) {
+    switch (s->method) {
     case QMC_METHOD_GAUSS_KRONROD:
-        return run_gk(&s, f, rep, &m); /* its jump floor keeps steps honest */
+        return run_gk(s, f, rep, why); /* its jump floor keeps steps honest */
     case QMC_METHOD_CUBATURE:
     case QMC_METHOD_CLENSHAW_CURTIS:
-        err = run_cubature(&s, f, s.method == QMC_METHOD_CLENSHAW_CURTIS, rep, &m);
+        err = run_cubature(s, f, s->method == QMC_METHOD_CLENSHAW_CURTIS, rep, why);
         break;
     case QMC_METHOD_MIDPOINT:
-        err = run_tensor(&s, QMC_RULE1D_MIDPOINT, f, rep, &m);
+        err = run_tensor(s, QMC_RULE1D_MIDPOINT, f, rep, why);
         break;
     case QMC_METHOD_TRAPEZOID:
-        err = run_tensor(&s, QMC_RULE1D_TRAPEZOID, f, rep, &m);
+        err = run_tensor(s, QMC_RULE1D_TRAPEZOID, f, rep, why);
         break;
     case QMC_METHOD_SIMPSON:
-        err = run_tensor(&s, QMC_RULE1D_SIMPSON, f, rep, &m);
+        err = run_tensor(s, QMC_RULE1D_SIMPSON, f, rep, why);
         break;
     case QMC_METHOD_GAUSS_LEGENDRE:
-        err = run_tensor(&s, QMC_RULE1D_GAUSS_LEGENDRE, f, rep, &m);
+        err = run_tensor(s, QMC_RULE1D_GAUSS_LEGENDRE, f, rep, why);
         break;
     default:
-        qmc__msg_str(&m, "unknown method");
+        qmc__msg_str(why, "unknown method");
         return QMC_EINVAL;
     }
     /* A polynomial rule's error estimate assumes the integrand is smooth

@@ -17,6 +17,9 @@
 #include "msg.h"
 #include "sampling_impl.h"
 
+/* Flags that say the round's bar rests on no evidence (qmc/result.h). */
+#define CANNOT_TELL (QMC_FLAG_FEW_NONZERO | QMC_FLAG_ZERO_SPREAD | QMC_FLAG_TAIL_UNTESTED)
+
 /* The next n: double it; stratified needs the next k^d at or above. */
 static uint64_t next_n(const qmc_sampling_spec *s, uint32_t dims)
 {
@@ -135,7 +138,14 @@ int qmc_sampling_adaptive(const qmc_sampling_spec *spec, const qmc_integrand *f,
         res->evals = evals;
         double half = res->ci_high - res->estimate;
         double target = fmax(tol_abs, tol_rel * fabs(res->estimate));
-        if (half <= target)
+        /* A round whose bar cannot see its failure (no nonzero values, a
+         * spread of exactly 0, a tail too thin to test) meets no
+         * tolerance: 0 +- 0 <= tol * |0| is no evidence, so n grows until
+         * the points find the mass or the budget ends (and the flags stay).
+         * An estimate the sums overflowed will not improve with n. */
+        if (!isfinite(res->estimate))
+            break;
+        if (half <= target && !(res->flags & CANNOT_TELL))
             break;
         uint64_t n2 = next_n(&s, f->dims);
         uint64_t cost = (extendable(&s) && s.n % QMC_SAMPLING_BLOCK == 0 ? n2 - s.n : n2) *

@@ -28,27 +28,84 @@
 /*
  * Hill's estimator of the tail index alpha from the largest |f| values:
  * alpha = k / sum_{i<k} ln(x_i / x_k).  P(|f| > t) ~ t^-alpha, so the
- * variance is infinite for alpha <= 2.  With k = 63 its standard error is
- * about alpha / 8; we flag below 2.5, which catches x^-1/2 (alpha = 2)
- * almost always and bounded integrands (alpha -> infinity) never.
- * Returns +inf when there are too few nonzero values to say.
+ * variance is infinite for alpha <= 2.  Under a Pareto tail of index 2,
+ * alpha_hat = 2k / G with G ~ Gamma(k, 1), so "alpha_hat >= 2k / G_0.05(k)"
+ * rules out an infinite variance at the 95% level (heavy_tail_threshold).
+ * At k = 63 that is 2.5, the bar this test always used: it catches x^-1/2
+ * almost always and bounded integrands (alpha -> infinity) never.  At
+ * k = 12 (n = 256) it is 3.5, where a fixed 2.5 let x^-1/2 through one
+ * run in eight (12 of 100 seeds silent, now 5).  k is at most n / 20 (the
+ * tail, not the body) and at most the nonzero values less one (x_k must
+ * be positive), so sparse integrands are still tested.
+ * Returns NAN when k < 8: too few values to say (QMC_FLAG_TAIL_UNTESTED),
+ * which is not the same as "not heavy".
  */
-static double hill_alpha(const double *top, uint64_t n)
+static double hill_alpha(const double *top, uint64_t n, int nonzero, int *k_used)
 {
     int k = QMC_SAMPLING_TOP - 1;
     if (n < 20u * (uint64_t)QMC_SAMPLING_TOP)
         k = (int)(n / 20);
-    if (k < 8 || !(top[k] > 0.0))
-        return INFINITY;
+    if (k > nonzero - 1)
+        k = nonzero - 1;
+    *k_used = k;
+    if (k < QMC_SAMPLING_MIN_NONZERO)
+        return NAN;
     double s = 0.0;
     for (int i = 0; i < k; i++)
         s += log(top[i] / top[k]);
     return s > 0.0 ? k / s : INFINITY;
 }
 
+/* 2k / G_0.05(k), G ~ Gamma(k, 1), by the Wilson-Hilferty cube
+ * (accurate to 1% at k >= 8): the smallest Hill estimate that still rules
+ * out alpha <= 2 at the 95% level. */
+static double heavy_tail_threshold(int k)
+{
+    const double z = -1.6448536269514722; /* the standard normal's 5% point */
+    double c = 1.0 - 1.0 / (9.0 * k) + z / (3.0 * sqrt((double)k));
+    return 2.0 / (c * c * c);
+}
+
+/* Nonzero |f| among the pooled top values: the count of nonzero values
+ * seen, up to QMC_SAMPLING_TOP (all the tests below need). */
+static int top_nonzero(const double *top)
+{
+    int k = 0;
+    while (k < QMC_SAMPLING_TOP && top[k] > 0.0)
+        k++;
+    return k;
+}
+
 static int is_base2_net(qmc_seq_kind kind)
 {
     return kind == QMC_SEQ_SOBOL;
+}
+
+void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite, int has_bar)
+{
+    const int nonzero = top_nonzero(top);
+    int k = 0;
+    const double alpha = hill_alpha(top, finite, nonzero, &k);
+    if (alpha < heavy_tail_threshold(k))
+        res->flags |= QMC_FLAG_HEAVY_TAIL | QMC_FLAG_ERROR_UNRELIABLE;
+    /* Fewer than QMC_SAMPLING_MIN_NONZERO nonzero values (none at all, when
+     * every point missed a small support or light): the spread describes
+     * the points that saw nothing, not the mass between them.  0 +- 0 is
+     * the extreme case. */
+    if (nonzero < QMC_SAMPLING_MIN_NONZERO)
+        res->flags |= QMC_FLAG_FEW_NONZERO | (has_bar ? QMC_FLAG_ERROR_UNRELIABLE : 0u);
+    if (!has_bar)
+        return;
+    if (isnan(alpha))
+        res->flags |= QMC_FLAG_TAIL_UNTESTED;
+    /* A bar of exactly 0 from a randomized method: every sample (or every
+     * replicate mean) came out equal - the split replicates of a piecewise
+     * constant function can - which no random error does; and an infinite
+     * bar (one point, one live replicate) says nothing either. */
+    if (res->error == 0.0 && isfinite(res->estimate))
+        res->flags |= QMC_FLAG_ZERO_SPREAD | QMC_FLAG_ERROR_UNRELIABLE;
+    if (isinf(res->error))
+        res->flags |= QMC_FLAG_ERROR_UNRELIABLE;
 }
 
 int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *sums,
@@ -151,8 +208,12 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
     /* Diagnostics. */
     if (all.nonfinite)
         res->flags |= QMC_FLAG_NONFINITE | QMC_FLAG_ERROR_UNRELIABLE;
-    if (hill_alpha(all.top, finite) < 2.5)
-        res->flags |= QMC_FLAG_HEAVY_TAIL | QMC_FLAG_ERROR_UNRELIABLE;
+    /* Finite values whose sums overflowed (radiance near DBL_MAX): the
+     * estimate or its spread is inf or NaN with no value to blame. */
+    if (!isfinite(res->estimate) ||
+        (res->error_kind == QMC_ERROR_STDERR && isnan(res->error)))
+        res->flags |= QMC_FLAG_NONFINITE | QMC_FLAG_ERROR_UNRELIABLE;
+    qmc__sampling_evidence(res, all.top, finite, s->sampler != QMC_SAMPLER_QMC);
     if ((s->sampler == QMC_SAMPLER_QMC || s->sampler == QMC_SAMPLER_RQMC) &&
         is_base2_net(s->seq) && (s->n & (s->n - 1)) != 0)
         res->flags |= QMC_FLAG_NOT_POW2;

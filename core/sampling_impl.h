@@ -27,4 +27,11 @@ int qmc__sampling_run_blocks(const qmc_sampling_job *job, qmc_block_runner runne
 /* Keeps the QMC_SAMPLING_TOP largest of a's and b's top values in a. */
 void qmc__top_merge(double *a, const double *b);
 
+/* The evidence flags of a finished sampling result (sampling_finish.c):
+ * heavy_tail from the pooled top values of `finite` finite points, and
+ * the "cannot tell" flags - few_nonzero, tail_untested, zero_spread and an
+ * infinite bar - which mark a bar resting on evidence that cannot see the
+ * failure; has_bar is 0 for plain qmc, which claims no bar. */
+void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite, int has_bar);
+
 #endif

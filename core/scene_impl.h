@@ -12,6 +12,7 @@
 #include <math.h>
 
 #include "msg.h"
+#include "qmc/result.h"
 #include "qmc/scene.h"
 
 #define QMC__SCENE_PI 3.14159265358979323846264338327950288
@@ -54,6 +55,7 @@ typedef struct qmc__scene_geom {
      * the cone's cosine */
     qmc_vec3 a, a1, a2;
     double dist, radius, cos_max;
+    double omc;              /* 1 - cos_max, without its cancellation */
     /* rect: corner, edges, m = edge1 x edge2, its unit, area */
     qmc_vec3 c, e1, e2, m, nl;
     double area, inv_m2;
@@ -129,5 +131,17 @@ int qmc__scene_hit(const qmc__scene_geom *g, qmc_vec3 w, double *dist,
 /* The sphere's hit distance along a direction at cosine u to the axis
  * inside the cone. */
 double qmc__scene_sphere_dist(const qmc__scene_geom *g, double u);
+
+/* The techniques' densities and the light technique's sample (scene_eval.c),
+ * shared with the audit (scene_audit.c): solid-angle densities of unit w;
+ * the light's sample from u[0..2) with its distance and density (0 when
+ * the sample fails). */
+double qmc__scene_pdf_brdf(const qmc__scene_geom *g, qmc_vec3 w);
+double qmc__scene_pdf_uniform(const qmc__scene_geom *g, qmc_vec3 w);
+qmc_vec3 qmc__scene_sample_light(const qmc__scene_geom *g, const double *u, double *dist,
+                                 double *pdf);
+
+/* The scene job's audit (qmc_integrand.audit, scene_audit.c). */
+uint32_t qmc__scene_audit(const void *ctx, const qmc_result *res);
 
 #endif /* QMC_SCENE_IMPL_H */

@@ -204,6 +204,8 @@ int cli_cmd_merge(int argc, char **argv)
         qmc_sampling_describe(&o.spec, rep.detail, sizeof rep.detail);
         if (qmc_sampling_finish(job, m.sums, m.blocks, &rep.res, &rep.cv) != 0)
             rc = cli_error("merge: the block sums do not form a complete job");
+        else if (p.f->audit) /* as qmc_integrate does: merged == whole, flags too */
+            rep.res.flags |= p.f->audit(p.f->ctx, &rep.res);
     }
     if (rc == 0) {
         cli_report_print(stdout, &rep, json);

@@ -15,6 +15,8 @@
 extern "C" {
 #endif
 
+struct qmc_result; /* qmc/result.h */
+
 /* What an integrand declares about itself, for `auto` and diagnostics. */
 typedef enum qmc_smoothness {
     QMC_SMOOTH_ANALYTIC = 0,       /* smooth everywhere (Genz oscillatory...) */
@@ -37,6 +39,12 @@ typedef struct qmc_integrand {
     int has_abs_integral;      /* 1 when abs_integral holds int |f| */
     double abs_integral;
     const char *name;          /* static string, e.g. "genz-gaussian" */
+    /* Optional (NULL: none): flags from evidence only the integrand can
+     * gather, given its finished result - a scene's MIS techniques, whose
+     * separate shares the one sum hides.  qmc_integrate calls it once per
+     * successful run with the result it returns; it must be
+     * deterministic (the same result gives the same flags) and cheap. */
+    uint32_t (*audit)(const void *ctx, const struct qmc_result *res);
 } qmc_integrand;
 
 /*

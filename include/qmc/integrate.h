@@ -71,8 +71,9 @@ typedef struct qmc_integrate_spec {
  * 1e8 evaluations, 64 MiB of cubature regions, no interrupt hook. */
 void qmc_integrate_spec_init(qmc_integrate_spec *spec);
 
-/* Room for auto's reason, terminator included. */
-#define QMC_AUTO_REASON_BYTES 256
+/* Room for auto's reason, terminator included (the wire allows 1024 bytes;
+ * a fallback from a rule to rqmc, with a VEGAS pilot, needs about 400). */
+#define QMC_AUTO_REASON_BYTES 512
 
 typedef struct qmc_integrate_report {
     qmc_result res;

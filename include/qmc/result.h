@@ -32,7 +32,17 @@ extern "C" {
     X(MEMORY_BOUND, 8, "memory_bound", "the region memory bound was reached")        \
     X(FEW_REPS, 9, "few_reps", "too few randomizations for a reliable interval")     \
     X(ERROR_UNRELIABLE, 10, "error_unreliable", "the error estimate is not trustworthy") \
-    X(ZERO_PDF, 11, "zero_pdf", "the sampling pdf vanishes where the integrand does not")
+    X(ZERO_PDF, 11, "zero_pdf", "the sampling pdf vanishes where the integrand does not") \
+    X(FEW_NONZERO, 12, "few_nonzero",                                                \
+      "too few nonzero values: the bar cannot see mass the points missed")           \
+    X(ZERO_SPREAD, 13, "zero_spread",                                                \
+      "samples or replicates agree exactly: a spread of 0 is not exactness")         \
+    X(TAIL_UNTESTED, 14, "tail_untested",                                            \
+      "too few nonzero values to test for heavy tails: infinite variance not ruled out") \
+    X(UNRESOLVED, 15, "unresolved",                                                  \
+      "the rule's nodes missed the integrand's mass: levels agree at (near) zero")   \
+    X(MIS_UNDERSAMPLED, 16, "mis_undersampled",                                      \
+      "a MIS technique owns mass it almost never sampled")
 
 enum {
 #define QMC__FLAG_ENUM(name, bit, key, text) QMC_FLAG_##name = 1u << (bit),

@@ -45,6 +45,11 @@ enum {
     QMC_SAMPLING_TOP = 64      /* largest |f| kept per block (tail check) */
 };
 
+/* Below this many nonzero values a bar is flagged QMC_FLAG_FEW_NONZERO (and
+ * the tail test, which needs one more, QMC_FLAG_TAIL_UNTESTED): with 8 the
+ * relative spread of a count is about 1/sqrt(8), and below it one point
+ * more or less moves the estimate past its own bar. */
+#define QMC_SAMPLING_MIN_NONZERO 8
 /* Below this many replicates an RQMC interval is flagged QMC_FLAG_FEW_REPS. */
 #define QMC_SAMPLING_MIN_REPS 8u
 /* Each replicate keeps its own sequence tables (about 264 bytes a
@@ -150,8 +155,9 @@ typedef struct qmc_cv_report {
 
 /*
  * Combines all blocks (sums[i].block == i, every block present) into *res
- * and, when cv is not NULL, *cv.  Flags: nonfinite, heavy_tail, not_pow2,
- * dims_past_good, few_reps, error_unreliable.  Errors: QMC_EINVAL (missing
+ * and, when cv is not NULL, *cv.  Flags: nonfinite (also when finite
+ * values overflow the sums), heavy_tail, not_pow2, dims_past_good,
+ * few_reps, few_nonzero, zero_spread, tail_untested, error_unreliable.  Errors: QMC_EINVAL (missing
  * or misordered blocks); *res is still initialised.
  */
 QMC_MUST_CHECK int qmc_sampling_finish(const qmc_sampling_job *job,

@@ -791,7 +791,7 @@ static const mutation mutations[] = {
     {QMC_MSG_JOB_RESULT, 9, 1, 3, "error kind 3"},
     {QMC_MSG_JOB_RESULT, 10, 1, 3, "reference kind 3"},
     {QMC_MSG_JOB_RESULT, 11, 1, 2, "cv.used 2"},
-    {QMC_MSG_JOB_RESULT, 16, 4, 1u << 12, "undefined result flag"},
+    {QMC_MSG_JOB_RESULT, 16, 4, 1u << 17, "undefined result flag"},
     {QMC_MSG_JOB_RESULT, 20, 4, 1, "reserved"},
     {QMC_MSG_JOB_RESULT, 120, 1, 5, "sampler 5"},
     {QMC_MSG_JOB_RESULT, 121, 1, 7, "seq kind 7"},

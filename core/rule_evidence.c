@@ -1,0 +1,54 @@
+/*
+ * rule_evidence.c - watching a rule's nodes for mass it cannot see (see
+ * rule_evidence.h for why and for what it must not do).
+ */
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "rule_evidence.h"
+
+static void watched_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
+                         double *out)
+{
+    const qmc__node_watch *w = ctx;
+    w->inner->eval(w->inner->ctx, x, n, dims, out);
+    /* Branch-free, in locals, so the watch costs a pass over values the
+     * rule has just written (cubature's cheap integrands notice a branch
+     * per value). */
+    uint64_t nonzero = 0;
+    double sum_abs = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double a = fabs(out[i]);
+        int live = a > 0.0 && a <= DBL_MAX; /* finite and not 0; NaN fails both */
+        nonzero += (uint64_t)live;
+        sum_abs += live ? a : 0.0;
+    }
+    qmc__node_stats *st = w->stats;
+    st->evals += n;
+    st->nonzero += nonzero;
+    st->sum_abs += sum_abs;
+}
+
+void qmc__node_watch_init(qmc__node_watch *w, const qmc_integrand *f, qmc__node_stats *stats)
+{
+    memset(stats, 0, sizeof *stats);
+    w->view = *f;
+    w->view.eval = watched_eval;
+    w->view.ctx = w;
+    w->inner = f;
+    w->stats = stats;
+}
+
+uint32_t qmc__rule_evidence_flags(const qmc_result *res, const qmc__node_stats *stats)
+{
+    if (stats->evals == 0 || !isfinite(res->estimate))
+        return 0; /* cancelled, or nonfinite already says it */
+    const uint32_t blind = QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE;
+    if (stats->nonzero == 0)
+        return blind;
+    const double mass = fmax(fabs(res->estimate), stats->sum_abs / (double)stats->evals);
+    if (!(res->error < QMC__UNRESOLVED_SHARE * mass))
+        return blind;
+    return 0;
+}
