@@ -30,6 +30,7 @@
 #include "loop.h"
 #include "main.h"
 #include "modbus_bridge.h"
+#include "peers.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -220,6 +221,8 @@ int main(int argc, char **argv)
     if (!err)
         err = qmcd_seqcache_new(&srv.seqs);
     if (!err)
+        err = qmcd_peers_new(&srv.peers);
+    if (!err)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
@@ -257,6 +260,7 @@ out:
     qmcd_modbus_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
+    qmcd_peers_free(srv.peers);
     qmcd_loop_close(&srv);
     free(srv.listeners);
     if (srv.cfg.ready_file[0])

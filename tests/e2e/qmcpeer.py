@@ -917,8 +917,8 @@ def make_ring(slots, slot_bytes, seal=True, populate=True, size=None, name="qmcp
     if populate and size:
         os.pwrite(fd, bytes(size), 0)
     if seal:
-        fcntl.fcntl(fd, fcntl.F_ADD_SEALS,
-                    fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW | fcntl.F_SEAL_SEAL)
+        # Not F_SEAL_SEAL: the server adds F_SEAL_FUTURE_WRITE after mapping.
+        fcntl.fcntl(fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW)
     m = mmap.mmap(fd, size, mmap.MAP_SHARED, mmap.PROT_READ) if size else None
     return fd, m
 

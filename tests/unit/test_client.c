@@ -865,9 +865,11 @@ static uint8_t *srv_attach(fake *f, int fd, uint32_t slots, uint32_t slot_bytes,
     const size_t bytes = (size_t)slots * slot_bytes;
     int seals = fcntl(pfd, F_GET_SEALS);
     struct stat st;
+    /* Sealed against shrinking and growing, and not F_SEAL_SEAL: the server
+     * adds F_SEAL_FUTURE_WRITE after mapping it (PROTOCOL.md section 10). */
     if (seals < 0 || (seals & (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL)) !=
-                         (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL))
-        fake_bad(f, "the memfd is not sealed");
+                         (F_SEAL_SHRINK | F_SEAL_GROW))
+        fake_bad(f, "the memfd is not sealed as the protocol asks");
     if (fstat(pfd, &st) != 0 || (size_t)st.st_size < bytes)
         fake_bad(f, "the memfd is too small");
     void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, pfd, 0);
