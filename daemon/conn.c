@@ -33,6 +33,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
 #include "jobs.h"
@@ -274,6 +275,7 @@ void qmcd_conns_reap(qmcd_server *srv)
     while (srv->dead_conns) {
         qmcd_conn *c = srv->dead_conns;
         srv->dead_conns = c->next;
+        qmcd_auth_conn_free(c);
         free(c->in);
         free(c->out);
         set_out_alloc(c, 0);

@@ -15,6 +15,7 @@
 typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_ring qmcd_ring;
+typedef struct qmcd_auth_conn qmcd_auth_conn;
 typedef struct qmcd_pool_tenant qmcd_pool_tenant;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
@@ -77,6 +78,8 @@ struct qmcd_conn {
     int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
     qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
                                     or NULL */
+    qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE
+                                    (auth.c), or NULL */
 };
 
 /* Accept handler for a listening socket's watch. */

@@ -31,6 +31,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
 #include "dispatch.h"
@@ -116,7 +117,8 @@ static void parse_frames_inner(qmcd_conn *c)
          * HELLO only HELLO is welcome (PROTOCOL.md), and a server-only
          * type is never a request.  The handler would refuse them too,
          * but only after up to max-frame bytes had been buffered. */
-        if (!c->hello_done && type != QMC_MSG_HELLO) {
+        if (!c->hello_done && type != QMC_MSG_HELLO &&
+            !(type == QMC_MSG_AUTH_RESPONSE && qmcd_auth_pending(c))) {
             c->srv->stats.malformed++;
             qmcd_conn_fail(c, id, QMC_EPROTO, "the first frame must be HELLO, not %s",
                            qmc_msg_type_name(type));

@@ -203,6 +203,30 @@ int qmcd_jobs_has_request(const qmcd_conn *c, uint64_t request_id)
     return 0;
 }
 
+/* Detaches j from its connection unanswered: a running job is told to
+ * stop and freed by qmcd_jobs_on_done, a finished one now. */
+static void detach(qmcd_job *j)
+{
+    if (j->finished) {
+        job_free(j);
+        return;
+    }
+    int none = CANCEL_NONE;
+    atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
+    j->conn = NULL;
+}
+
+void qmcd_jobs_end_request(qmcd_conn *c, uint64_t request_id)
+{
+    for (qmcd_job *j = c->jobs; j; j = j->conn_next)
+        if (j->request_id == request_id) {
+            unlink_job(c, j);
+            c->srv->stats.jobs_cancelled++;
+            detach(j);
+            return;
+        }
+}
+
 /* Copies a decoded list (raw little-endian bytes) into doubles. */
 static double *copy_list(const qmc_f64s *l)
 {
@@ -393,7 +417,9 @@ static int answer(qmcd_conn *c, qmcd_job *j)
     int cancel = atomic_load(&j->cancel);
     int rc;
     if (cancel == CANCEL_TIMEOUT) {
+        /* A failure like any other (jobs_failed), counted apart too. */
         srv->stats.jobs_timed_out++;
+        srv->stats.jobs_failed++;
         rc = qmcd_conn_error(c, j->request_id, -ETIMEDOUT,
                              "job-time-limit-ms: job %llu ran past %llu ms and was cancelled",
                              (unsigned long long)j->id, (unsigned long long)j->time_limit_ms);
@@ -508,14 +534,13 @@ void qmcd_jobs_drop_all(qmcd_conn *c)
         qmcd_job *j = c->jobs;
         c->jobs = j->conn_next;
         c->n_jobs--;
-        if (j->finished) {
-            job_free(j);
-        } else {
-            int none = CANCEL_NONE;
-            atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
-            j->conn = NULL; /* qmcd_jobs_on_done frees it */
+        /* Accepted and never answered: neither done, failed nor
+         * cancelled, so STATS counts it here (jobs_accepted = done +
+         * failed + cancelled + dropped once none is open). */
+        c->srv->stats.jobs_dropped++;
+        if (!j->finished)
             queued |= atomic_load(&j->start_ms) == 0;
-        }
+        detach(j);
     }
     if (queued)
         qmcd_pool_cancelled(c->srv->pool); /* let them end now, not in turn */

@@ -19,6 +19,9 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
 
 /* 1 when an unanswered job of the connection came from request_id. */
 int qmcd_jobs_has_request(const qmcd_conn *c, uint64_t request_id);
+/* Ends the job of request_id, if any, without an answer (the caller sends
+ * the ERROR that ends it): the job is cancelled and counted so. */
+void qmcd_jobs_end_request(qmcd_conn *c, uint64_t request_id);
 
 /* The eventfd watch: finished jobs come back to the loop here. */
 void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events);

@@ -358,6 +358,17 @@ int qmcd_points_has_request(const qmcd_conn *c, uint64_t request_id)
     return 0;
 }
 
+void qmcd_points_end_request(qmcd_conn *c, uint64_t request_id)
+{
+    for (qmcd_stream **link = &c->streams; *link; link = &(*link)->next)
+        if ((*link)->request_id == request_id) {
+            qmcd_stream *s = *link;
+            *link = s->next;
+            stream_free(c, s);
+            return;
+        }
+}
+
 void qmcd_points_drop_all(qmcd_conn *c)
 {
     while (c->streams) {

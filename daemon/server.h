@@ -16,6 +16,7 @@ typedef struct qmcd_conn qmcd_conn;
 typedef struct qmcd_pool qmcd_pool;
 typedef struct qmcd_seqcache qmcd_seqcache;
 typedef struct qmcd_listener qmcd_listener;
+typedef struct qmcd_auth qmcd_auth;
 typedef struct qmcd_peers qmcd_peers;
 typedef struct qmcd_modbus qmcd_modbus;
 
@@ -50,6 +51,7 @@ struct qmcd_server {
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
     qmcd_stats stats;
+    qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
     int draining;              /* SIGTERM seen: no new work */
     int64_t drain_deadline_ms; /* then cancel what still runs */
