@@ -4,9 +4,11 @@
  * grayscale PNG of the 2D periodogram.
  *
  * libqmc does the arithmetic (qmc_spectrum_accumulate / _finish); this file
- * makes the point sets, scales the image and writes the files.  Both files
- * are built in memory and written through a temporary file renamed into
- * place, so an error never leaves a partial file.  With --connect the
+ * makes the point sets, scales the image and writes the files.  Both
+ * targets are checked (outfile.h) before any work, both files are built in
+ * memory, written beside their targets and fsynced, and only then renamed
+ * into place together: an error, a bad second target or a signal leaves
+ * neither file changed.  With --connect the
  * points come from the daemon (the same bits) and the arithmetic stays here.
  */
 #include <errno.h>
@@ -17,6 +19,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "outfile.h"
 #include "png.h"
 #include "qmc/quality.h"
 
@@ -54,43 +57,6 @@ static const char spectrum_help[] =
     "              square of pixels so the image is at least 256 wide\n"
     "\n"
     "Work limit: N x R x (2K+1)^2 <= 4e9.\n";
-
-/* Writes buf to path through a temporary file in the same directory. */
-static int write_file(const char *path, const void *buf, size_t bytes,
-                      const char *what)
-{
-    size_t len = strlen(path);
-    char *tmp = malloc(len + 16);
-    if (!tmp)
-        return cli_error("spectrum: out of memory");
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, ".tmp.XXXXXX", 12);
-    int rc = 0;
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        rc = cli_error("spectrum: --%s: cannot create a file beside '%s': %s",
-                       what, path, strerror(errno));
-        free(tmp);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
-    if (!f) {
-        rc = cli_error("spectrum: --%s: %s", what, strerror(errno));
-        close(fd);
-    } else {
-        if (cli_write_all(f, buf, bytes, what) != 0)
-            rc = CLI_EXIT_FAIL;
-        if (fclose(f) != 0 && rc == 0)
-            rc = cli_error("spectrum: writing '%s': %s", path, strerror(errno));
-    }
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_error("spectrum: --%s: cannot rename into '%s': %s", what,
-                       path, strerror(errno));
-    if (rc != 0)
-        unlink(tmp);
-    free(tmp);
-    return rc;
-}
 
 /* Points 0 .. count-1 of spec as f64, from the daemon when c is set. */
 static int fetch(qmc_client *c, const qmc_seq_spec *spec, uint64_t count, double *pts)
@@ -176,7 +142,7 @@ static void render(const double *power, uint32_t kmax, uint32_t scale,
     }
 }
 
-static int write_csv(const char *path, const double *radial, uint32_t kmax)
+static int write_csv(cli_outfile *out, const double *radial, uint32_t kmax)
 {
     size_t cap = 32 + (size_t)(kmax + 1) * 40, len = 0;
     char *buf = malloc(cap);
@@ -186,12 +152,12 @@ static int write_csv(const char *path, const double *radial, uint32_t kmax)
     for (uint32_t b = 0; b <= kmax; b++)
         len += (size_t)snprintf(buf + len, cap - len, "%u,%.17g\n", b,
                                 radial[b]);
-    int rc = write_file(path, buf, len, "csv");
+    int rc = cli_write_all(out->f, buf, len, "--csv") ? CLI_EXIT_FAIL : 0;
     free(buf);
     return rc;
 }
 
-static int write_png(const char *path, const double *power, uint32_t kmax)
+static int write_png(cli_outfile *out, const double *power, uint32_t kmax)
 {
     uint32_t side = (uint32_t)qmc_spectrum_side(kmax);
     uint32_t scale = (SPEC_MIN_IMAGE_SIDE + side - 1) / side;
@@ -206,7 +172,7 @@ static int write_png(const char *path, const double *power, uint32_t kmax)
     } else {
         render(power, kmax, scale, pixels);
         size_t n = cli_png_encode_gray8(pixels, width, width, png, bytes);
-        rc = n ? write_file(path, png, n, "png")
+        rc = n ? (cli_write_all(out->f, png, n, "--png") ? CLI_EXIT_FAIL : 0)
                : cli_error("spectrum: cannot encode a %ux%u image", width,
                            width);
     }
@@ -284,6 +250,17 @@ int cli_cmd_spectrum(int argc, char **argv)
                          (unsigned long long)(count * so.spec.dims),
                          SPEC_MAX_VALUES);
 
+    if (cli_outfile_same(png_path, csv_path))
+        return cli_error("spectrum: --png and --csv both name '%s': give each its own "
+                         "file", png_path);
+    /* Both targets checked before any work; see outfile.h. */
+    cli_outfile outs[2];
+    if (cli_outfile_open(&outs[0], csv_path, "--csv") != 0)
+        return CLI_EXIT_FAIL;
+    if (cli_outfile_open(&outs[1], png_path, "--png") != 0) {
+        cli_outfile_abort(&outs[0]);
+        return CLI_EXIT_FAIL;
+    }
     const uint32_t kmax = (uint32_t)freq;
     size_t cells = qmc_spectrum_side(kmax) * qmc_spectrum_side(kmax);
     double *power = calloc(cells, sizeof *power);
@@ -304,10 +281,14 @@ int cli_cmd_spectrum(int argc, char **argv)
         rc = cli_error("spectrum: %s", qmc_strerror(err));
         goto done;
     }
-    rc = write_csv(csv_path, radial, kmax);
+    rc = write_csv(&outs[0], radial, kmax);
     if (rc == 0)
-        rc = write_png(png_path, power, kmax);
+        rc = write_png(&outs[1], power, kmax);
+    if (rc == 0)
+        rc = cli_outfile_commit_all(outs, 2);
 done:
+    cli_outfile_abort(&outs[0]);
+    cli_outfile_abort(&outs[1]);
     qmc_client_close(client);
     free(power);
     free(radial);

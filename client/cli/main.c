@@ -6,6 +6,7 @@
  * and discrepancy and merge, which work on local files, accept and ignore
  * it so that scripts can pass it everywhere.
  */
+#include <errno.h>
 #include <string.h>
 
 #include "cli.h"
@@ -69,7 +70,33 @@ static int run_local_only(const cli_command *cmd, int argc, char **argv)
     return rc;
 }
 
+/* Every command's stdout goes through here once the command is done: a
+ * write error that stdio kept in its buffer (a full disk, > /dev/full, a
+ * closed pipe) shows at the final flush or close, and turns success into
+ * a one-line error and exit status 2.  A command that already failed
+ * said why; its exit status stands. */
+static int close_stdout(int rc)
+{
+    errno = 0;
+    int bad = fflush(stdout) != 0 || ferror(stdout);
+    int err = errno;
+    if (fclose(stdout) != 0 && !bad) {
+        bad = 1;
+        err = errno;
+    }
+    if (bad && rc == CLI_EXIT_OK)
+        return cli_error("writing to standard output: %s", strerror(err ? err : EIO));
+    return rc;
+}
+
+static int run(int argc, char **argv);
+
 int main(int argc, char **argv)
+{
+    return close_stdout(run(argc, argv));
+}
+
+static int run(int argc, char **argv)
 {
     if (argc < 2) {
         usage(stderr);
