@@ -113,7 +113,8 @@ $(SOCLIENT): $(CLIENT_OBJ) $(PROTO_OBJ) $(CORE_OBJ)
 $(BUILD)/qmcclient.pc: client/qmcclient.pc.in
 	sed -e 's|@PREFIX@|$(PREFIX)|g' $< > $@
 
-# The CLI links the client library exactly as any other user would.
+# The CLI links the client library exactly as any other user would
+# (LDLIBS' libsodium also gives it the SHA-256 of --part files).
 $(QMC): $(CLI_OBJ) $(ALL_LIBS)
 	$(CC) $(CFLAGS) -pthread -o $@ $(CLI_OBJ) $(ALL_LIBS) $(LDLIBS) $(LDFLAGS)
 
@@ -126,6 +127,15 @@ $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Icore -Iprotocol -Itests/unit $(DEPFLAGS) -o $@ $< $(UNIT_HELPER) \
 	  $(ALL_LIBS) -lcmocka -pthread $(LDLIBS) $(LDFLAGS)
+
+# The CLI's file pieces (pure readers, outfile.c) have a unit test that
+# links them beside the libraries.
+CLI_UNIT_SRC := client/cli/linebuf.c client/cli/csv_read.c client/cli/part_read.c \
+                client/cli/outfile.c client/cli/cli_common.c
+$(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
+	  -lcmocka $(LDLIBS) $(LDFLAGS)
 
 # The Modbus e2e test's libmodbus master (tests/e2e/test_modbus.sh).
 MODBUS_CLIENT := $(BUILD)/tests/modbus-client
@@ -194,8 +204,12 @@ fuzz-lib:
 # FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
 # compiles sources in itself pulls nothing twice.
 FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
+FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
+FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
+build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
+build/fuzz/fuzz_part: $(FUZZ_SRCS_part)
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
-	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -o $@ $< \
+	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -Iclient/cli -o $@ $< \
 	  $(FUZZ_SRCS_$*) build/fuzz/libqmcproto.a build/fuzz/libqmc.a -lm $(SODIUM_LIBS)
 endif
 

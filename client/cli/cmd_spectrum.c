@@ -4,9 +4,11 @@
  * grayscale PNG of the 2D periodogram.
  *
  * libqmc does the arithmetic (qmc_spectrum_accumulate / _finish); this file
- * makes the point sets, scales the image and writes the files.  Both files
- * are built in memory and written through a temporary file renamed into
- * place, so an error never leaves a partial file.  With --connect the
+ * makes the point sets, scales the image and writes the files.  Both
+ * targets are checked (outfile.h) before any work, both files are built in
+ * memory, written beside their targets and fsynced, and only then renamed
+ * into place together: an error, a bad second target or a signal leaves
+ * neither file changed.  With --connect the
  * points come from the daemon (the same bits) and the arithmetic stays here.
  */
 #include <errno.h>
@@ -18,6 +20,7 @@
 
 #include "cli.h"
 #include "json.h"
+#include "outfile.h"
 #include "png.h"
 #include "qmc/quality.h"
 
@@ -60,43 +63,6 @@ static const char spectrum_help[] =
     "At least one of --png, --csv and --json is required.\n"
     "\n"
     "Work limit: N x R x (2K+1)^2 <= 4e9.\n";
-
-/* Writes buf to path through a temporary file in the same directory. */
-static int write_file(const char *path, const void *buf, size_t bytes,
-                      const char *what)
-{
-    size_t len = strlen(path);
-    char *tmp = malloc(len + 16);
-    if (!tmp)
-        return cli_error("spectrum: out of memory");
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, ".tmp.XXXXXX", 12);
-    int rc = 0;
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        rc = cli_error("spectrum: --%s: cannot create a file beside '%s': %s",
-                       what, path, strerror(errno));
-        free(tmp);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
-    if (!f) {
-        rc = cli_error("spectrum: --%s: %s", what, strerror(errno));
-        close(fd);
-    } else {
-        if (cli_write_all(f, buf, bytes, what) != 0)
-            rc = CLI_EXIT_FAIL;
-        if (fclose(f) != 0 && rc == 0)
-            rc = cli_error("spectrum: writing '%s': %s", path, strerror(errno));
-    }
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_error("spectrum: --%s: cannot rename into '%s': %s", what,
-                       path, strerror(errno));
-    if (rc != 0)
-        unlink(tmp);
-    free(tmp);
-    return rc;
-}
 
 /* Points 0 .. count-1 of spec as f64, from the daemon when c is set. */
 static int fetch(qmc_client *c, const qmc_seq_spec *spec, uint64_t count, double *pts)
@@ -182,7 +148,7 @@ static void render(const double *power, uint32_t kmax, uint32_t scale,
     }
 }
 
-static int write_csv(const char *path, const double *radial, uint32_t kmax)
+static int write_csv(cli_outfile *out, const double *radial, uint32_t kmax)
 {
     size_t cap = 32 + (size_t)(kmax + 1) * 40, len = 0;
     char *buf = malloc(cap);
@@ -192,12 +158,12 @@ static int write_csv(const char *path, const double *radial, uint32_t kmax)
     for (uint32_t b = 0; b <= kmax; b++)
         len += (size_t)snprintf(buf + len, cap - len, "%u,%.17g\n", b,
                                 radial[b]);
-    int rc = write_file(path, buf, len, "csv");
+    int rc = cli_write_all(out->f, buf, len, "--csv") ? CLI_EXIT_FAIL : 0;
     free(buf);
     return rc;
 }
 
-static int write_png(const char *path, const double *power, uint32_t kmax)
+static int write_png(cli_outfile *out, const double *power, uint32_t kmax)
 {
     uint32_t side = (uint32_t)qmc_spectrum_side(kmax);
     uint32_t scale = (SPEC_MIN_IMAGE_SIDE + side - 1) / side;
@@ -212,7 +178,7 @@ static int write_png(const char *path, const double *power, uint32_t kmax)
     } else {
         render(power, kmax, scale, pixels);
         size_t n = cli_png_encode_gray8(pixels, width, width, png, bytes);
-        rc = n ? write_file(path, png, n, "png")
+        rc = n ? (cli_write_all(out->f, png, n, "--png") ? CLI_EXIT_FAIL : 0)
                : cli_error("spectrum: cannot encode a %ux%u image", width,
                            width);
     }
@@ -325,6 +291,28 @@ int cli_cmd_spectrum(int argc, char **argv)
                          (unsigned long long)(count * so.spec.dims),
                          SPEC_MAX_VALUES);
 
+    if (png_path && csv_path && cli_outfile_same(png_path, csv_path))
+        return cli_error("spectrum: --png and --csv both name '%s': give each its own "
+                         "file", png_path);
+    /* Both targets checked before any work; see outfile.h. */
+    /* With --json either file may be left out: only those asked for. */
+    cli_outfile outs[2];
+    memset(outs, 0, sizeof outs);
+    outs[0].slot = outs[1].slot = -1;
+    cli_outfile *csv_out = NULL, *png_out = NULL;
+    size_t n_outs = 0;
+    if (csv_path) {
+        if (cli_outfile_open(&outs[n_outs], csv_path, "--csv") != 0)
+            return CLI_EXIT_FAIL;
+        csv_out = &outs[n_outs++];
+    }
+    if (png_path) {
+        if (cli_outfile_open(&outs[n_outs], png_path, "--png") != 0) {
+            cli_outfile_abort(&outs[0]);
+            return CLI_EXIT_FAIL;
+        }
+        png_out = &outs[n_outs++];
+    }
     const uint32_t kmax = (uint32_t)freq;
     size_t cells = qmc_spectrum_side(kmax) * qmc_spectrum_side(kmax);
     double *power = calloc(cells, sizeof *power);
@@ -345,15 +333,19 @@ int cli_cmd_spectrum(int argc, char **argv)
         rc = cli_error("spectrum: %s", qmc_strerror(err));
         goto done;
     }
-    if (csv_path)
-        rc = write_csv(csv_path, radial, kmax);
-    if (rc == 0 && png_path)
-        rc = write_png(png_path, power, kmax);
+    if (csv_out)
+        rc = write_csv(csv_out, radial, kmax);
+    if (rc == 0 && png_out)
+        rc = write_png(png_out, power, kmax);
+    if (rc == 0)
+        rc = cli_outfile_commit_all(outs, n_outs);
     /* Last, so that stdout names only files that were written. */
     if (rc == 0 && json)
         rc = print_json(&so.spec, count, (uint32_t)reps, kmax, radial, csv_path,
                         png_path);
 done:
+    cli_outfile_abort(&outs[0]);
+    cli_outfile_abort(&outs[1]);
     qmc_client_close(client);
     free(power);
     free(radial);

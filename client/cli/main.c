@@ -9,6 +9,7 @@
  * `qmc help` lists the commands; `qmc help COMMAND` runs COMMAND --help
  * through the same dispatch, so the two can never print different text.
  */
+#include <errno.h>
 #include <string.h>
 
 #include "cli.h"
@@ -120,7 +121,33 @@ static int cmd_help(int argc, char **argv)
     return run_command(cmd, 2, sub);
 }
 
+/* Every command's stdout goes through here once the command is done: a
+ * write error that stdio kept in its buffer (a full disk, > /dev/full, a
+ * closed pipe) shows at the final flush or close, and turns success into
+ * a one-line error and exit status 2.  A command that already failed
+ * said why; its exit status stands. */
+static int close_stdout(int rc)
+{
+    errno = 0;
+    int bad = fflush(stdout) != 0 || ferror(stdout);
+    int err = errno;
+    if (fclose(stdout) != 0 && !bad) {
+        bad = 1;
+        err = errno;
+    }
+    if (bad && rc == CLI_EXIT_OK)
+        return cli_error("writing to standard output: %s", strerror(err ? err : EIO));
+    return rc;
+}
+
+static int run(int argc, char **argv);
+
 int main(int argc, char **argv)
+{
+    return close_stdout(run(argc, argv));
+}
+
+static int run(int argc, char **argv)
 {
     if (argc < 2) {
         usage(stderr);
