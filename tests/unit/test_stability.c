@@ -368,6 +368,36 @@ static void test_auto_finds_missed_peak(void **state)
     assert_true(o.rep.res.estimate > 0.0);
 }
 
+/* Class 1, partly resolved: explicit cubature found most of a narrow 2D
+ * peak and refined it, while two regions beside it, long along the axis
+ * where the peak is 1/125 wide, kept every node in its tail: 8.56e-6 +-
+ * 8.5e-14 against 1.02e-5.  Now the splits that proved a bar blind make
+ * such regions suspects that are split once more along their longest
+ * axis (cubature.c, mark_suspects), and the run finds the mass: the
+ * interval covers the truth, unflagged.  A 1D peak whose root saw 7e-22
+ * and whose halves saw 0 reported 0 +- 0, unflagged; it is unresolved
+ * now.  The control: a wide Gaussian the rule resolves stays unflagged. */
+static void test_cubature_partial_peak(void **state)
+{
+    (void)state;
+    const double a2[] = {124.8, 2465}, u2[] = {0.7062, 0.5042};
+    run_out o = run_au("genz-gaussian", 2, a2, u2, QMC_METHOD_CUBATURE, NULL);
+    double truth = gaussian_truth(2, a2, u2);
+    assert_int_equal(o.err, 0);
+    assert_true(fabs(o.rep.res.estimate - truth) <= 3 * o.rep.res.error);
+    ASSERT_COVERS_OR_FLAGGED(o, truth);
+    const double a1[] = {2371}, u1[] = {0.9714};
+    o = run_au("genz-gaussian", 1, a1, u1, QMC_METHOD_CUBATURE, NULL);
+    assert_true(o.rep.res.estimate == 0.0);
+    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
+    ASSERT_COVERS_OR_FLAGGED(o, gaussian_truth(1, a1, u1));
+    const double a3[] = {12, 9, 15}, u3[] = {0.31, 0.62, 0.47};
+    o = run_au("genz-gaussian", 3, a3, u3, QMC_METHOD_CUBATURE, NULL);
+    assert_int_equal(o.rep.res.flags, 0);
+    truth = gaussian_truth(3, a3, u3);
+    assert_true(fabs(o.rep.res.estimate - truth) <= 3 * o.rep.res.error);
+}
+
 /* The control: a peak the rules resolve (a = 50) raises no unresolved. */
 static void test_resolved_peak_not_flagged(void **state)
 {
@@ -705,6 +735,7 @@ int main(void)
         cmocka_unit_test(test_rules_miss_narrow_peak),
         cmocka_unit_test(test_auto_finds_missed_peak),
         cmocka_unit_test(test_resolved_peak_not_flagged),
+        cmocka_unit_test(test_cubature_partial_peak),
         cmocka_unit_test(test_zero_samples_flagged),
         cmocka_unit_test(test_zero_spread_not_tolerance_met),
         cmocka_unit_test(test_split_net_zero_spread),
