@@ -20,7 +20,10 @@ WARN     := -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes \
 # whichever compiler or flags build them.
 CFLAGS   := -std=c11 $(WARN) -ffp-contract=off -fPIC $(OPT) \
             -D_POSIX_C_SOURCE=200809L -Iinclude $(EXTRA_CFLAGS)
-LDLIBS   := -lm
+# libsodium: HMAC-SHA256 and constant-time compares for the handshake
+# (protocol/auth.c), in every program that links the protocol library.
+SODIUM_LIBS := $(shell pkg-config --libs libsodium 2>/dev/null || echo -lsodium)
+LDLIBS   := -lm $(SODIUM_LIBS)
 DAEMON_LIBS := $(shell pkg-config --libs libsystemd 2>/dev/null)
 # libmodbus: the daemon's RTU line only (daemon/modbus_rtu.c); the Modbus
 # tests' C client and the benchmark's peer server link it too.
@@ -103,7 +106,7 @@ $(LIBCLIENT): $(CLIENT_OBJ)
 # The shared client library carries the codec and the core it needs, so a
 # user links -lqmcclient alone (pkg-config qmcclient).
 $(SOCLIENT): $(CLIENT_OBJ) $(PROTO_OBJ) $(CORE_OBJ)
-	$(CC) -shared -Wl,-soname,libqmcclient.so.0 -o $@ $^ -lm -pthread $(LDFLAGS)
+	$(CC) -shared -Wl,-soname,libqmcclient.so.0 -o $@ $^ -lm $(SODIUM_LIBS) -pthread $(LDFLAGS)
 
 # (install writes its own copy for its PREFIX)
 $(BUILD)/qmcclient.pc: client/qmcclient.pc.in
@@ -172,14 +175,17 @@ ifneq ($(BUILD),build/fuzz)
 .PHONY: fuzz-lib
 fuzz-lib:
 	@$(MAKE) --no-print-directory BUILD=build/fuzz CC=clang \
-	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a
+	  OPT="-O1 -g -fsanitize=fuzzer-no-link,address,undefined" build/fuzz/libqmc.a \
+	  build/fuzz/libqmcproto.a
 
-# A target that drives code outside libqmc lists those sources as
-# FUZZ_SRCS_<name>; they are compiled into it with its flags.
+# Targets take what they need from the protocol library (fuzz_auth) and
+# the core; a target that drives code outside them lists those sources as
+# FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
+# compiles sources in itself pulls nothing twice.
 FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
 	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -o $@ $< \
-	  $(FUZZ_SRCS_$*) build/fuzz/libqmc.a -lm
+	  $(FUZZ_SRCS_$*) build/fuzz/libqmcproto.a build/fuzz/libqmc.a -lm $(SODIUM_LIBS)
 endif
 
 fuzz: deps-test $(FUZZ_BIN)

@@ -55,7 +55,7 @@ void qmcd_usage(void)
 {
     fputs("usage: qmcd [--config FILE] [--listen unix:PATH | tcp:HOST:PORT]... [--threads N]\n"
           "            [--foreground] [--log-level err|warning|notice|info|debug]\n"
-          "            [--ready-file PATH] [--KEY VALUE]...\n"
+          "            [--ready-file PATH] [--auth-key FILE] [--KEY VALUE]...\n"
           "       qmcd --check-config [--config FILE] [--KEY VALUE]...\n"
           "\n"
           "Serves quasi-Monte Carlo points and integration jobs (see protocol/PROTOCOL.md).\n"
@@ -64,6 +64,9 @@ void qmcd_usage(void)
           "logged and written to --ready-file).  Without --foreground qmcd forks and the\n"
           "parent exits once the child is ready.  SIGHUP re-reads the config (limits and\n"
           "log level); SIGTERM drains jobs for shutdown-timeout-ms and exits 0.\n"
+          "tcp::PORT listens on loopback only.  A TCP listener on any other address\n"
+          "needs --auth-key FILE (mode 0600, 16-1024 bytes; re-read on SIGHUP): clients\n"
+          "then prove they hold the same key (docs/SECURITY.md).\n"
           "--check-config reads FILE (default " QMCD_DEFAULT_CONFIG ") and the flags,\n"
           "prints what is wrong (file and line) and exits 2, or exits 0 if all is well.\n"
           "\n"
@@ -223,11 +226,23 @@ typedef struct text_key {
     int (*set)(qmcd_config *c, const char *key, const char *value, char *why, size_t n);
 } text_key;
 
+/* The key file (auth.c reads and checks it); "" (auth-key =) means none. */
+static int set_auth_key(qmcd_config *c, const char *key, const char *value, char *why,
+                        size_t n)
+{
+    if (!value[0]) {
+        c->auth_key[0] = '\0';
+        return 0;
+    }
+    return set_path(c->auth_key, key, value, why, n);
+}
+
 static const text_key text_keys[] = {
     {"log-level", set_log_level},
     {"foreground", set_foreground},
     {"ready-file", set_ready_file},
     {"listen", set_listen},
+    {"auth-key", set_auth_key},
     {"modbus", set_modbus},
     {"modbus-allow", set_modbus_allow},
 };
@@ -438,6 +453,16 @@ int qmcd_config_load(const qmcd_args *args, qmcd_config *c, char *why, size_t wh
         return -1;
     if (apply_flags(args, c, why, why_bytes) != 0)
         return -1;
+    if (c->auth_key[0] && c->auth_key[0] != '/' && args->base_dir) {
+        char abs[QMCD_PATH_BYTES];
+        int len = snprintf(abs, sizeof abs, "%s/%s", args->base_dir, c->auth_key);
+        if (len < 0 || (size_t)len >= sizeof abs) {
+            snprintf(why, why_bytes, "auth-key: %s/%s is longer than %d bytes", args->base_dir,
+                     c->auth_key, QMCD_PATH_BYTES - 1);
+            return -1;
+        }
+        memcpy(c->auth_key, abs, (size_t)len + 1);
+    }
     /* A rule across keys: a Modbus listener off loopback needs an allow
      * list.  Numeric hosts are judged here, so --check-config sees it. */
     if (qmcd_modbus_check_exposure(c, why, why_bytes) != 0)

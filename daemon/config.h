@@ -38,7 +38,13 @@
     X("shutdown-timeout-ms", shutdown_timeout_ms, 10000, 0, 3600000, 1)         \
     X("modbus-max-connections", modbus_max_connections, 256, 1, 1u << 16, 1)   \
     X("modbus-frame-timeout-ms", modbus_frame_timeout_ms, 5000, 50, 3600000, 1) \
-    X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)
+    X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)         \
+    X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
+    X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
+    X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \
+    X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
+    X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
+    X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;
@@ -47,6 +53,7 @@ typedef struct qmcd_config {
     int log_level;                 /* log.h levels; reloadable */
     int foreground;
     char ready_file[QMCD_PATH_BYTES];
+    char auth_key[QMCD_PATH_BYTES];  /* key file (auth.c), "" for none; reloadable */
     char listen[QMCD_MAX_LISTEN][QMCD_PATH_BYTES];
     unsigned n_listen;
     /* Modbus transports (daemon/modbus*.c): tcp:HOST:PORT or rtu:...; and
@@ -63,6 +70,10 @@ typedef struct qmcd_args {
     int check_only;                /* --check-config: validate and exit */
     int argc;
     char **argv;                   /* the option words, re-parsed on reload */
+    const char *base_dir;          /* where relative auth-key paths start (the
+                                      directory qmcd started in: a daemon has
+                                      moved to "/" by the time SIGHUP re-reads
+                                      them), or NULL */
 } qmcd_args;
 
 void qmcd_config_defaults(qmcd_config *c);

@@ -1,26 +1,12 @@
 /*
- * conn.c - client connections: accepting, reading frames out of a bounded
- * input buffer, a bounded output buffer drained as the socket allows, and
- * the deadlines that keep a stuck peer from holding anything for long.
+ * conn.c - client connections: accepting, the bounded output buffer drained
+ * as the socket allows, the pump that turns results and chunks into frames,
+ * and the deadlines that keep a stuck peer from holding anything for long.
+ * Reading and framing the input is conn_read.c.
  *
- * Buffers.  Input holds at most one frame header plus max-frame bytes: the
- * header's payload_len is checked against max-frame before any payload is
- * buffered.  Output is one contiguous buffer capped by out-buffer-bytes.
- * Requests are read only while QMCD_OUT_RESERVE bytes of output are free,
- * so a peer that sends but never reads stops being read (TCP then pushes
- * back on it) instead of growing our memory; and POINTS data is generated
- * only into free space (points.c), never queued ahead of the socket.
- *
- * Descriptors.  Unix-socket connections are read with recvmsg, so that a
- * memfd passed with SCM_RIGHTS (SHM_ATTACH, PROTOCOL.md section 10) is
- * seen.  Linux hands a descriptor out with the read that reaches the first
- * byte of the sendmsg that carried it; that read may begin with bytes sent
- * before (never after), so all we know is that the descriptor's bytes lie
- * within the read.  It is kept, with the read's stream offsets, until the
- * first SHM_ATTACH frame that begins within them claims it.  A descriptor
- * whose bytes hold no SHM_ATTACH start, more than one at once, a truncated
- * control message: all are closed at once and the connection fails, so a
- * peer cannot leave descriptors in the daemon.
+ * Buffers.  Output is one contiguous buffer capped by out-buffer-bytes.
+ * POINTS data is generated only into free space (points.c), never queued
+ * ahead of the socket.
  *
  * Closing.  A connection that gets a fatal ERROR (malformed frame,
  * timeouts) stops reading requests, flushes the ERROR, shuts down its
@@ -47,53 +33,97 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
-#include "dispatch.h"
+#include "conn_read.h"
 #include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
+#include "peers.h"
 #include "points.h"
 
-/* The input buffer starts this small and grows to the frame being read. */
-#define IN_START_BYTES (16u << 10)
-/* Fairness: how much one connection may read, or be sent, per event. */
-#define READ_BUDGET_BYTES (1u << 20)
+/* Fairness: how much one connection may be sent per event. */
 #define PUMP_ROUNDS 8
 #define PRODUCE_LIMIT 256
 #define PRODUCE_BATCH_BYTES (64u << 10)
-/* Descriptors one recvmsg can take; a legitimate peer sends one at a time
- * (room for more only so that extras are seen and closed, not truncated). */
-#define RECV_FDS_MAX 4
 
 static void conn_on_event(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 
 /* ---- output buffer ---------------------------------------------------------- */
 
+/* What the connection's buffer takes from out-buffer-total-bytes: its
+ * allocation beyond the floor every connection keeps. */
+static size_t over_floor(size_t alloc)
+{
+    return alloc > QMCD_OUT_FLOOR_BYTES ? alloc - QMCD_OUT_FLOOR_BYTES : 0;
+}
+
+/* Records a new allocation size for the global account; a shrink wakes the
+ * streams waiting for memory (at the end of the loop round). */
+static void set_out_alloc(qmcd_conn *c, size_t n)
+{
+    qmcd_server *srv = c->srv;
+    size_t before = over_floor(c->out_alloc), after = over_floor(n);
+    srv->out_over_bytes = srv->out_over_bytes - before + after;
+    if (after < before && srv->n_out_waiting)
+        srv->out_wake = 1;
+    c->out_alloc = n;
+}
+
+/* The largest allocation this connection may have now: the floor, plus
+ * what it already holds beyond it, plus what out-buffer-total-bytes still
+ * leaves unallocated. */
+static size_t alloc_allowed(const qmcd_conn *c)
+{
+    const qmcd_server *srv = c->srv;
+    uint64_t cap = srv->cfg.out_buffer_total_bytes;
+    uint64_t free_bytes = cap > srv->out_over_bytes ? cap - srv->out_over_bytes : 0;
+    return QMCD_OUT_FLOOR_BYTES + over_floor(c->out_alloc) + (size_t)free_bytes;
+}
+
 size_t qmcd_conn_out_room(const qmcd_conn *c)
 {
     size_t pending = c->out_tail - c->out_head;
     size_t cap = (size_t)c->srv->cfg.out_buffer_bytes;
-    return pending >= cap ? 0 : cap - pending;
+    size_t room = pending >= cap ? 0 : cap - pending;
+    /* Less when memory across all connections is short (the 64 bytes are
+     * the alignment slack a reservation may need). */
+    size_t allowed = alloc_allowed(c);
+    size_t global = allowed > pending + 64 ? allowed - pending - 64 : 0;
+    return global < room ? global : room;
+}
+
+/* 1 when out-buffer-total-bytes, not the connection's own cap, is what
+ * holds its output back. */
+static int short_of_global_memory(const qmcd_conn *c)
+{
+    return alloc_allowed(c) < (size_t)c->srv->cfg.out_buffer_bytes + 64;
 }
 
 uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
 {
-    if (bytes > qmcd_conn_out_room(c))
-        return NULL;
+    /* Small answers (no alignment wish) are exempt from the global cap:
+     * the reserve rule (requests are read only with QMCD_OUT_RESERVE
+     * free) already bounds them, and refusing one would close the
+     * connection. */
+    const int wants_align = align_at != QMCD_NO_ALIGN;
     size_t pending = c->out_tail - c->out_head;
+    size_t cap = (size_t)c->srv->cfg.out_buffer_bytes;
+    if (bytes > (wants_align ? qmcd_conn_out_room(c) : pending >= cap ? 0 : cap - pending))
+        return NULL;
     /* Where the new bytes start must make out + start + align_at a multiple
      * of 64.  The buffer itself is 64-byte aligned. */
     size_t start = c->out_tail;
     /* Only POINTS data asks for alignment (QMCD_NO_ALIGN otherwise): were
      * every small answer realigned, filling the buffer would move all the
      * pending bytes once per frame - quadratic in the backlog. */
-    const int wants_align = align_at != QMCD_NO_ALIGN;
     int misaligned = wants_align && ((start + align_at) & 63u) != 0;
     if (!misaligned && start + bytes <= c->out_alloc)
         return c->out + start;
     /* Move pending bytes to the front, at the offset (< 64) that aligns the
-     * new frame; grow if needed (up to the cap plus the 64-byte slack). */
+     * new frame; grow if needed (up to the cap plus the 64-byte slack, and
+     * for POINTS data within what out-buffer-total-bytes allows). */
     size_t head = wants_align ? (64u - ((pending + align_at) & 63u)) & 63u : 0;
     size_t need = head + pending + bytes;
     if (need > c->out_alloc) {
@@ -101,6 +131,8 @@ uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
         while (n < need)
             n *= 2;
         size_t max = (size_t)c->srv->cfg.out_buffer_bytes + 128;
+        if (wants_align && alloc_allowed(c) < max)
+            max = alloc_allowed(c);
         if (n > max)
             n = max < need ? need : max;
         void *p = NULL;
@@ -110,7 +142,7 @@ uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at)
             memcpy((uint8_t *)p + head, c->out + c->out_head, pending);
         free(c->out);
         c->out = p;
-        c->out_alloc = n;
+        set_out_alloc(c, n);
     } else if (pending && head != c->out_head) {
         memmove(c->out + head, c->out + c->out_head, pending);
     }
@@ -223,8 +255,17 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
     c->w.fd = -1;
     c->dead = 1;
     unlink_conn(c);
-    srv->n_conns--;
-    srv->stats.conns_closed++;
+    if (c->out_waiting) {
+        c->out_waiting = 0;
+        srv->n_out_waiting--;
+    }
+    if (c->refused) {
+        srv->n_refusing--;
+    } else {
+        srv->n_conns--;
+        qmcd_peers_remove(srv->peers, &c->peer_key);
+        srv->stats.conns_closed++;
+    }
     c->next = srv->dead_conns;
     srv->dead_conns = c;
 }
@@ -234,9 +275,25 @@ void qmcd_conns_reap(qmcd_server *srv)
     while (srv->dead_conns) {
         qmcd_conn *c = srv->dead_conns;
         srv->dead_conns = c->next;
+        qmcd_auth_conn_free(c);
         free(c->in);
         free(c->out);
+        set_out_alloc(c, 0);
         free(c);
+    }
+    /* Output memory came free this round: streams that waited for it go
+     * on (a kick that finds nothing to do is cheap). */
+    if (srv->out_wake) {
+        srv->out_wake = 0;
+        qmcd_conn *next;
+        for (qmcd_conn *c = srv->conns; c; c = next) {
+            next = c->next;
+            if (c->out_waiting) {
+                c->out_waiting = 0;
+                srv->n_out_waiting--;
+                qmcd_conn_kick(c);
+            }
+        }
     }
 }
 
@@ -288,7 +345,8 @@ static void describe_peer(int fd, const qmcd_listener *l, char *out, size_t n)
     }
 }
 
-/* Over max-connections (or draining): tell the peer why, then close.
+/* Draining, or a refusal when QMCD_REFUSING_MAX are lingering already:
+ * tell the peer why, then close at once.
  * Whatever it already sent is read first so the close does not reset the
  * connection before the ERROR arrives. */
 static void reject(qmcd_server *srv, int fd, const char *why)
@@ -311,6 +369,26 @@ static void reject(qmcd_server *srv, int fd, const char *why)
     srv->stats.conns_rejected++;
     srv->stats.errors_sent++;
     srv->stats.limit_hits++;
+}
+
+/* A flood of refusals is one line a second, not one per socket. */
+static void log_refusal(qmcd_server *srv, const qmcd_listener *l, const qmcd_peer_key *key,
+                        const char *why)
+{
+    int64_t now = qmcd_now_ms();
+    if (srv->refusal_log_ms && now - srv->refusal_log_ms < 1000) {
+        srv->refusals_unlogged++;
+        return;
+    }
+    char who[64];
+    qmcd_peer_key_name(key, who, sizeof who);
+    if (srv->refusals_unlogged)
+        qmcd_warn("%s: refused a connection from %s: %s (and %llu more in the last second)",
+                  l->name, who, why, (unsigned long long)srv->refusals_unlogged);
+    else
+        qmcd_warn("%s: refused a connection from %s: %s", l->name, who, why);
+    srv->refusal_log_ms = now;
+    srv->refusals_unlogged = 0;
 }
 
 void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -336,16 +414,37 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             reject(srv, fd, "server shutting down");
             continue;
         }
+        /* Who it is decides whether it may come in: one peer (an address,
+         * or a local user) may hold max-connections-per-peer, so that a
+         * greedy one cannot fill max-connections for everyone. */
+        qmcd_peer_key key;
+        if (qmcd_peer_key_of(fd, &key) != 0) {
+            reject(srv, fd, "cannot tell who this peer is");
+            continue;
+        }
+        char why[160] = "";
         if (srv->n_conns >= srv->cfg.max_connections) {
-            char why[120];
             snprintf(why, sizeof why, "max-connections (%llu) reached; try later",
                      (unsigned long long)srv->cfg.max_connections);
-            qmcd_warn("%s: refused a connection: %s", l->name, why);
+        } else if (qmcd_peers_count(srv->peers, &key) >= srv->cfg.max_connections_per_peer) {
+            char who[64];
+            qmcd_peer_key_name(&key, who, sizeof who);
+            snprintf(why, sizeof why, "max-connections-per-peer (%llu) reached for %s; "
+                     "close some connections or try later",
+                     (unsigned long long)srv->cfg.max_connections_per_peer, who);
+        }
+        if (why[0] && srv->n_refusing >= QMCD_REFUSING_MAX) {
+            /* Too many refusals already lingering: the short way. */
             reject(srv, fd, why);
             continue;
         }
         qmcd_conn *c = calloc(1, sizeof *c);
         if (!c) {
+            reject(srv, fd, "out of memory");
+            continue;
+        }
+        if (!why[0] && qmcd_peers_add(srv->peers, &key) != 0) {
+            free(c);
             reject(srv, fd, "out of memory");
             continue;
         }
@@ -359,6 +458,8 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         c->w.fd = fd;
         c->w.on_event = conn_on_event;
         c->passed_fd = -1;
+        c->peer_key = key;
+        c->refused = why[0] != 0;
         struct sockaddr_storage own;
         socklen_t own_len = sizeof own;
         c->unix_socket = getsockname(fd, (struct sockaddr *)&own, &own_len) == 0 &&
@@ -367,6 +468,8 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         c->accepted_ms = c->active_ms = qmcd_now_ms();
         describe_peer(fd, l, c->peer, sizeof c->peer);
         if (qmcd_loop_add(srv, &c->w, EPOLLIN) != 0) {
+            if (!c->refused)
+                qmcd_peers_remove(srv->peers, &key);
             close(fd);
             free(c);
             continue;
@@ -375,263 +478,21 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         if (srv->conns)
             srv->conns->prev = c;
         srv->conns = c;
+        if (c->refused) {
+            /* Refused through the ordinary closing path: the ERROR is
+             * queued, the peer's HELLO read and dropped, and the socket
+             * closed once the peer has it or QMCD_LINGER_MS passed.  An
+             * immediate close would reset a peer still sending its HELLO
+             * (which then sees "broken pipe", not our reason). */
+            srv->n_refusing++;
+            srv->stats.conns_rejected++;
+            log_refusal(srv, l, &key, why);
+            qmcd_conn_fail(c, 0, QMC_ETOOBIG, "%s", why);
+            continue;
+        }
         srv->n_conns++;
         srv->stats.conns_accepted++;
         qmcd_debug("conn %llu: accepted from %s", (unsigned long long)c->id, c->peer);
-    }
-}
-
-/* ---- reading ------------------------------------------------------------------- */
-
-static int in_reserve(qmcd_conn *c, size_t need)
-{
-    if (need <= c->in_alloc)
-        return 0;
-    size_t n = c->in_alloc ? c->in_alloc : IN_START_BYTES;
-    while (n < need)
-        n *= 2;
-    uint8_t *p = realloc(c->in, n);
-    if (!p)
-        return -1;
-    c->in = p;
-    c->in_alloc = n;
-    return 0;
-}
-
-/* The largest payload we accept now (max-frame may change on SIGHUP). */
-/* The largest payload we accept from this peer: what HELLO_OK promised
- * it, or before that the current configuration. */
-static uint32_t max_payload(const qmcd_conn *c)
-{
-    return c->server_max_frame ? c->server_max_frame : (uint32_t)c->srv->cfg.max_frame;
-}
-
-/* Decodes and dispatches the complete frames in the input buffer, while
- * there is output room for their answers. */
-static void parse_frames_inner(qmcd_conn *c)
-{
-    size_t off = 0;
-    /* Frames parsed together arrived together: one clock read serves as
-     * every request's start time (the latency statistics' t0). */
-    const int64_t t0_us = qmcd_now_us();
-    while (!c->dead && !c->closing && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE) {
-        const uint8_t *p = c->in + off;
-        size_t avail = c->in_len - off;
-        /* Every frame that began within a passed descriptor's bytes has
-         * been read, and none claimed it. */
-        if (c->passed_fd >= 0 && c->in_offset + off >= c->passed_fd_to) {
-            c->srv->stats.malformed++;
-            qmcd_conn_fail(c, 0, QMC_EPROTO, "a file descriptor came without an SHM_ATTACH "
-                           "frame; only SHM_ATTACH carries one");
-            return;
-        }
-        if (avail == 0)
-            break;
-        qmc_msg_type type;
-        uint64_t id;
-        uint32_t plen;
-        int rc = qmc_proto_peek(p, avail, max_payload(c), &type, &id, &plen);
-        if (rc == QMC_EAGAIN)
-            break;
-        if (rc == QMC_ETOOBIG) {
-            uint32_t said = avail >= 20 ? (uint32_t)p[16] | (uint32_t)p[17] << 8 |
-                                              (uint32_t)p[18] << 16 | (uint32_t)p[19] << 24
-                                        : 0;
-            c->srv->stats.malformed++;
-            qmcd_conn_fail(c, avail >= 16 ? id : 0, QMC_ETOOBIG,
-                           "frame payload of %u bytes exceeds max-frame (%u bytes)", said,
-                           max_payload(c));
-            return;
-        }
-        if (rc < 0) {
-            c->srv->stats.malformed++;
-            qmcd_conn_fail(c, 0, QMC_EPROTO, "malformed frame header (magic, version, "
-                                             "type, flags or length): %s",
-                           qmc_strerror(rc));
-            return;
-        }
-        /* Decided from the header, before buffering any payload: before
-         * HELLO only HELLO is welcome (PROTOCOL.md), and a server-only
-         * type is never a request.  The handler would refuse them too,
-         * but only after up to max-frame bytes had been buffered. */
-        if (!c->hello_done && type != QMC_MSG_HELLO) {
-            c->srv->stats.malformed++;
-            qmcd_conn_fail(c, id, QMC_EPROTO, "the first frame must be HELLO, not %s",
-                           qmc_msg_type_name(type));
-            return;
-        }
-        size_t frame = QMC_PROTO_HEADER_BYTES + (size_t)plen;
-        if (avail < frame) {
-            if (in_reserve(c, off + frame) != 0) {
-                qmcd_conn_fail(c, id, QMC_ENOMEM, "out of memory for a %zu-byte frame", frame);
-                return;
-            }
-            break;
-        }
-        /* The first SHM_ATTACH that begins within the bytes a passed
-         * descriptor came with takes it. */
-        int fd = -1;
-        const uint64_t at = c->in_offset + off;
-        if (c->passed_fd >= 0 && type == QMC_MSG_SHM_ATTACH && at >= c->passed_fd_from) {
-            fd = c->passed_fd;
-            c->passed_fd = -1;
-        }
-        qmc_msg m;
-        rc = qmc_proto_decode(p, frame, max_payload(c), &m);
-        if (rc < 0) {
-            if (fd >= 0)
-                close(fd);
-            c->srv->stats.malformed++;
-            qmcd_conn_fail(c, id, rc, "malformed %s payload: %s", qmc_msg_type_name(type),
-                           qmc_strerror(rc));
-            return;
-        }
-        c->srv->stats.frames_in++;
-        qmcd_dispatch(c, &m, fd, t0_us);
-        off += frame;
-    }
-    if (c->dead)
-        return;
-    if (c->closing) {
-        c->in_len = 0; /* nothing more of this peer's input is read */
-        return;
-    }
-    if (off) {
-        memmove(c->in, c->in + off, c->in_len - off);
-        c->in_len -= off;
-        c->in_offset += off;
-        c->partial_ms = 0;
-    }
-    if (c->in_len && !c->partial_ms)
-        c->partial_ms = qmcd_now_ms();
-    if (!c->in_len) {
-        c->partial_ms = 0;
-        if (c->in_alloc > IN_START_BYTES) { /* the big frame is gone: give it back */
-            free(c->in);
-            c->in = NULL;
-            c->in_alloc = 0;
-        }
-    }
-}
-
-static void parse_frames(qmcd_conn *c)
-{
-    c->parsing = 1;
-    parse_frames_inner(c);
-    c->parsing = 0;
-}
-
-/* recv, or on a Unix socket recvmsg that also takes passed descriptors
- * (see the file comment).  Returns as recv, or -2 after failing the
- * connection for a descriptor it may not send. */
-static ssize_t conn_recv(qmcd_conn *c, uint8_t *buf, size_t n)
-{
-    if (!c->unix_socket)
-        return recv(c->w.fd, buf, n, 0);
-    union {
-        struct cmsghdr align;
-        char bytes[CMSG_SPACE(sizeof(int) * RECV_FDS_MAX)];
-    } ctl;
-    struct iovec iov = {buf, n};
-    struct msghdr mh;
-    memset(&mh, 0, sizeof mh);
-    mh.msg_iov = &iov;
-    mh.msg_iovlen = 1;
-    mh.msg_control = ctl.bytes;
-    mh.msg_controllen = sizeof ctl.bytes;
-    ssize_t r = recvmsg(c->w.fd, &mh, MSG_CMSG_CLOEXEC);
-    if (r < 0)
-        return r;
-    int fds[RECV_FDS_MAX];
-    size_t nfds = 0, extra = 0;
-    for (struct cmsghdr *cm = CMSG_FIRSTHDR(&mh); cm; cm = CMSG_NXTHDR(&mh, cm)) {
-        if (cm->cmsg_level != SOL_SOCKET || cm->cmsg_type != SCM_RIGHTS)
-            continue;
-        size_t k = (cm->cmsg_len - CMSG_LEN(0)) / sizeof(int);
-        for (size_t i = 0; i < k; i++) {
-            int fd;
-            memcpy(&fd, CMSG_DATA(cm) + i * sizeof(int), sizeof fd);
-            if (nfds < RECV_FDS_MAX) {
-                fds[nfds++] = fd;
-            } else {
-                close(fd);
-                extra++;
-            }
-        }
-    }
-    if (nfds == 0 && !(mh.msg_flags & MSG_CTRUNC))
-        return r;
-    const char *why = NULL;
-    if (mh.msg_flags & MSG_CTRUNC)
-        why = "more file descriptors than one message may carry";
-    else if (nfds + extra > 1)
-        why = "more than one file descriptor at once";
-    else if (c->passed_fd >= 0)
-        why = "a second file descriptor before the first was claimed";
-    if (why) {
-        for (size_t i = 0; i < nfds; i++)
-            close(fds[i]);
-        c->srv->stats.malformed++;
-        qmcd_conn_fail(c, 0, QMC_EPROTO, "%s; only SHM_ATTACH carries one", why);
-        return -2;
-    }
-    c->passed_fd = fds[0];
-    c->passed_fd_from = c->in_offset + c->in_len;
-    c->passed_fd_to = c->passed_fd_from + (uint64_t)r;
-    return r;
-}
-
-static void do_read(qmcd_conn *c)
-{
-    size_t total = 0;
-    while (!c->dead && total < READ_BUDGET_BYTES) {
-        if (c->wr_shut || c->closing) {
-            /* Only draining the peer's leftovers before closing. */
-            uint8_t junk[16384];
-            ssize_t n = recv(c->w.fd, junk, sizeof junk, 0);
-            if (n > 0) {
-                total += (size_t)n;
-                continue;
-            }
-            if (n == 0 || (errno != EAGAIN && errno != EINTR))
-                qmcd_conn_close(c, n == 0 ? "closed after error" : strerror(errno));
-            return;
-        }
-        if (c->in_alloc == 0 && in_reserve(c, IN_START_BYTES) != 0)
-            return;
-        /* Full means complete frames wait for output room (EPOLLIN is then
-         * off): parse_frames grows the buffer for a frame still arriving,
-         * up to the header plus max-frame. */
-        if (c->in_len == c->in_alloc)
-            return;
-        const size_t asked = c->in_alloc - c->in_len;
-        ssize_t n = conn_recv(c, c->in + c->in_len, asked);
-        if (n == -2)
-            return; /* failed: a descriptor it may not pass */
-        if (n > 0) {
-            c->in_len += (size_t)n;
-            total += (size_t)n;
-            c->srv->stats.bytes_in += (uint64_t)n;
-            c->active_ms = qmcd_now_ms();
-            parse_frames(c);
-            if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
-                return; /* answers are backing up: stop reading */
-            /* A short read took what was there: skip the recv that would
-             * only say EAGAIN (a syscall per request on the small-request
-             * path).  epoll is level-triggered, so whatever arrives later,
-             * EOF included, is reported again. */
-            if ((size_t)n < asked)
-                return;
-            continue;
-        }
-        if (n == 0) {
-            c->peer_eof = 1;
-            return;
-        }
-        if (errno == EAGAIN || errno == EINTR)
-            return;
-        qmcd_conn_close(c, strerror(errno));
-        return;
     }
 }
 
@@ -661,7 +522,7 @@ static int flush(qmcd_conn *c)
         /* The stream that needed a big buffer is over: give it back. */
         free(c->out);
         c->out = NULL;
-        c->out_alloc = 0;
+        set_out_alloc(c, 0);
     }
     return 0;
 }
@@ -678,9 +539,19 @@ static void update_interest(qmcd_conn *c)
     } else {
         if (!c->peer_eof && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE)
             ev |= EPOLLIN;
-        /* Streams waiting for ring slots wait for SHM_RELEASE (EPOLLIN):
-         * a writable socket alone would only spin the loop. */
-        if (pending || qmcd_points_want_output(c))
+        /* Streams waiting for ring slots wait for SHM_RELEASE (EPOLLIN),
+         * and streams waiting for out-buffer-total-bytes for memory to
+         * come free (qmcd_conns_reap wakes them, the tick retries): a
+         * writable socket alone would only spin the loop. */
+        int want = qmcd_points_want_output(c);
+        if (want && !pending && short_of_global_memory(c)) {
+            want = 0;
+            if (!c->out_waiting) {
+                c->out_waiting = 1;
+                c->srv->n_out_waiting++;
+            }
+        }
+        if (pending || want)
             ev |= EPOLLOUT;
     }
     if (qmcd_loop_mod(c->srv, &c->w, ev) != 0)
@@ -695,7 +566,7 @@ void qmcd_conn_kick(qmcd_conn *c)
          * room again, parse them now - no new bytes may ever arrive to
          * trigger a read. */
         if (!c->closing && !c->parsing && c->in_len && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE)
-            parse_frames(c);
+            qmcd_conn_parse(c);
         if (c->dead)
             return;
         /* Produce every frame that fits (each pump adds at most one frame
@@ -760,7 +631,7 @@ static void conn_on_event(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         return;
     }
     if (events & (EPOLLIN | EPOLLHUP | EPOLLRDHUP))
-        do_read(c);
+        qmcd_conn_read(c);
     if (c->dead)
         return;
     if ((events & EPOLLHUP) && !(events & EPOLLIN)) {

@@ -8,21 +8,33 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "peers.h"
 #include "qmc/proto.h"
 #include "server.h"
 
 typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_ring qmcd_ring;
+typedef struct qmcd_auth_conn qmcd_auth_conn;
+typedef struct qmcd_pool_tenant qmcd_pool_tenant;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
  * JOB_RESULT): requests are read only while this much is free, and POINTS
  * chunks are generated only when they leave it free.  The largest small
  * answer (a STATS_REPLY of QMC_PROTO_MAX_STATS entries) is under 20 KiB. */
 #define QMCD_OUT_RESERVE (64u << 10)
+/* Output buffer every connection may allocate whatever the other
+ * connections hold: room for the small answers (twice the reserve), so
+ * HELLO, PING and STATS are served when out-buffer-total-bytes is spent.
+ * Allocation beyond it counts against out-buffer-total-bytes. */
+#define QMCD_OUT_FLOOR_BYTES (2 * QMCD_OUT_RESERVE)
 /* After an ERROR that ends a connection, how long we keep flushing it and
  * draining the peer's input before closing regardless. */
 #define QMCD_LINGER_MS 2000
+/* Refused connections (max-connections, max-connections-per-peer) linger
+ * like failed ones, so the peer reads the ERROR instead of a reset; past
+ * this many lingering at once, further refusals are closed at once. */
+#define QMCD_REFUSING_MAX 64
 
 struct qmcd_conn {
     qmcd_watch w;                /* first: epoll hands us &conn->w */
@@ -30,12 +42,14 @@ struct qmcd_conn {
     qmcd_conn *prev, *next;      /* srv->conns, or the dead list */
     uint64_t id;
     char peer[96];
+    qmcd_peer_key peer_key;      /* counted in srv->peers unless refused */
+    int refused;                 /* over a connection limit: ERROR, linger, close */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;
     int peer_eof;                /* the peer half-closed: answer, then close */
     int closing;                 /* ERROR sent: flush, shut down, close */
     int wr_shut;                 /* shutdown(SHUT_WR) done: only draining */
-    int parsing;                 /* inside parse_frames (no re-entry) */
+    int parsing;                 /* inside qmcd_conn_parse (no re-entry) */
     int unix_socket;             /* AF_UNIX: read with recvmsg, may pass fds */
     uint32_t client_max_frame;   /* HELLO: the largest payload it accepts */
     uint32_t server_max_frame;   /* HELLO_OK: what we promised to accept; a
@@ -50,6 +64,7 @@ struct qmcd_conn {
     uint64_t passed_fd_to;
     uint8_t *out;                /* pending output, out[out_head .. out_tail) */
     size_t out_head, out_tail, out_alloc;
+    int out_waiting;             /* a stream waits for out-buffer-total-bytes */
     int64_t accepted_ms, active_ms;
     int64_t partial_ms;          /* when the unfinished frame began, or 0 */
     int64_t stall_ms;            /* output pending and none written since, or 0 */
@@ -58,8 +73,13 @@ struct qmcd_conn {
     unsigned n_streams;
     qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
     unsigned n_jobs;
+    qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
+    uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
+    int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
     qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
                                     or NULL */
+    qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE
+                                    (auth.c), or NULL */
 };
 
 /* Accept handler for a listening socket's watch. */

@@ -13,6 +13,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "dispatch.h"
 #include "jobs.h"
 #include "log.h"
@@ -28,6 +29,25 @@
  * every answer but a POINTS_CHUNK then fits. */
 #define MIN_CLIENT_FRAME 65536u
 
+/* The messages that are requests (answered under their id): every
+ * client-to-server type but SHM_RELEASE and AUTH_RESPONSE. */
+static int is_request(qmc_msg_type t)
+{
+    switch (t) {
+    case QMC_MSG_HELLO:
+    case QMC_MSG_PING:
+    case QMC_MSG_POINTS:
+    case QMC_MSG_INTEGRATE:
+    case QMC_MSG_JOB_STATUS:
+    case QMC_MSG_JOB_CANCEL:
+    case QMC_MSG_STATS:
+    case QMC_MSG_SHM_ATTACH:
+        return 1;
+    default:
+        return 0;
+    }
+}
+
 static void record(qmcd_conn *c, int64_t t0_us)
 {
     qmcd_answered(c->srv, t0_us);
@@ -36,7 +56,7 @@ static void record(qmcd_conn *c, int64_t t0_us)
 static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
 {
     const qmc_msg_hello *h = &m->u.hello;
-    if (c->hello_done) {
+    if (c->hello_done || qmcd_auth_pending(c)) {
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "HELLO sent twice");
         return;
     }
@@ -52,13 +72,27 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
                        MIN_CLIENT_FRAME);
         return;
     }
+    qmcd_debug("conn %llu: HELLO from '%.*s'", (unsigned long long)c->id,
+               (int)h->client.len, h->client.ptr ? h->client.ptr : "");
+    /* A listener that requires the key: auth.c challenges, and answers
+     * HELLO_OK itself once the proof is good. */
+    if (qmcd_auth_on_hello(c, m, t0))
+        return;
+    qmcd_dispatch_hello_ok(
+        c, m->request_id,
+        (uint16_t)(h->version_max < SERVER_VERSION_MAX ? h->version_max : SERVER_VERSION_MAX),
+        h->max_frame, t0);
+}
+
+void qmcd_dispatch_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
+                            uint32_t client_max_frame, int64_t t0)
+{
     c->hello_done = 1;
-    c->client_max_frame = h->max_frame;
+    c->client_max_frame = client_max_frame;
     const qmcd_config *cfg = &c->srv->cfg;
     static const char server[] = "qmcd", engine[] = "libqmc 0.1.0";
-    qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = m->request_id};
-    r.u.hello_ok.version =
-        (uint16_t)(h->version_max < SERVER_VERSION_MAX ? h->version_max : SERVER_VERSION_MAX);
+    qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = request_id};
+    r.u.hello_ok.version = version;
     r.u.hello_ok.max_frame = (uint32_t)cfg->max_frame;
     c->server_max_frame = (uint32_t)cfg->max_frame;
     r.u.hello_ok.max_inflight = (uint32_t)cfg->max_inflight;
@@ -68,8 +102,6 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     r.u.hello_ok.server.len = sizeof server - 1;
     r.u.hello_ok.engine.ptr = engine;
     r.u.hello_ok.engine.len = sizeof engine - 1;
-    qmcd_debug("conn %llu: HELLO from '%.*s'", (unsigned long long)c->id,
-               (int)h->client.len, h->client.ptr ? h->client.ptr : "");
     if (qmcd_conn_send(c, &r) == 0)
         record(c, t0);
 }
@@ -105,14 +137,39 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         close(fd);
         fd = -1;
     }
-    if (!c->hello_done && m->type != QMC_MSG_HELLO) {
+    if (!c->hello_done && m->type != QMC_MSG_HELLO &&
+        !(m->type == QMC_MSG_AUTH_RESPONSE && qmcd_auth_pending(c))) {
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "the first frame must be HELLO, not %s",
                        qmc_msg_type_name(m->type));
+        return;
+    }
+    /* Id 0 is the connection's (PROTOCOL.md section 3): an answer carrying
+     * it could not be told from a connection error. */
+    if (m->request_id == 0 && is_request(m->type)) {
+        srv->stats.malformed++;
+        qmcd_conn_fail(c, 0, QMC_EPROTO, "%s with request id 0; id 0 is reserved for the "
+                       "connection", qmc_msg_type_name(m->type));
+        return;
+    }
+    /* An id already in flight (section 3): the ERROR is that id's final
+     * answer, so it ends the request in flight as well, whatever the new
+     * request is. */
+    if (is_request(m->type) &&
+        (qmcd_points_has_request(c, m->request_id) ||
+         qmcd_jobs_has_request(c, m->request_id))) {
+        qmcd_points_end_request(c, m->request_id);
+        qmcd_jobs_end_request(c, m->request_id);
+        qmcd_conn_error(c, m->request_id, QMC_EINVAL,
+                        "request id %llu is already in flight on this connection; this ERROR "
+                        "ends both requests", (unsigned long long)m->request_id);
         return;
     }
     switch (m->type) {
     case QMC_MSG_HELLO:
         on_hello(c, m, t0_us);
+        return;
+    case QMC_MSG_AUTH_RESPONSE:
+        qmcd_auth_on_response(c, m, t0_us);
         return;
     case QMC_MSG_PING:
         on_ping(c, m, t0_us);
@@ -152,14 +209,6 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-inflight: %llu requests already in flight on this connection",
                         (unsigned long long)srv->cfg.max_inflight);
-        return;
-    }
-    if (qmcd_points_has_request(c, m->request_id) || qmcd_jobs_has_request(c, m->request_id)) {
-        /* Answers are matched by id: a second request with a live id would
-         * make them ambiguous. */
-        qmcd_conn_error(c, m->request_id, QMC_EINVAL,
-                        "request id %llu is already in flight on this connection",
-                        (unsigned long long)m->request_id);
         return;
     }
     if (m->type == QMC_MSG_POINTS)

@@ -12,4 +12,9 @@
  * closed. */
 void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us);
 
+/* Ends the handshake: HELLO_OK with version and our limits, after HELLO
+ * (no authentication required) or a good AUTH_RESPONSE (auth.c). */
+void qmcd_dispatch_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
+                            uint32_t client_max_frame, int64_t t0_us);
+
 #endif

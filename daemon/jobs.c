@@ -1,52 +1,45 @@
 /*
- * jobs.c - INTEGRATE jobs on a pool of worker threads.
+ * jobs.c - INTEGRATE jobs: requests, cancellation, time limits, progress
+ * and answers, on the fair worker pool of pool.c.
  *
  * The loop thread validates a request (qmc_job_new builds the integrand
- * exactly as the CLI does), answers JOB_ACCEPTED at once and queues the
- * job.  A worker takes it and runs qmc_job_run with our block runner.  The
- * runner opens the job's blocks as a "batch": the worker computes blocks
- * itself, and idle workers join any open batch, so one job can use the
- * whole pool while several jobs share it.  Blocks are independent and
- * qmc_sampling_finish combines them in block order, so the numbers are
- * bit-identical to the CLI's whatever thread ran which block.  A worker
- * that runs out of blocks waits only for blocks other workers are already
- * computing, which never wait on anything: no deadlock however many jobs
- * are open.
+ * exactly as the CLI does), answers JOB_ACCEPTED at once and submits the
+ * job under its connection's tenant.  A runner thread runs qmc_job_run
+ * with our block runner, which hands the blocks to the pool; blocks are
+ * independent and qmc_sampling_finish combines them in block order, so the
+ * numbers are bit-identical to the CLI's whatever thread ran which block.
  *
- * Cancellation is cooperative: before every block the runner checks the
- * job's cancel flag (set by JOB_CANCEL, the connection closing, shutdown)
- * and its time limit, and returns -ECANCELED.  Methods that run no blocks
+ * Cancellation is cooperative: before every block the pool asks the job's
+ * cancel flag (set by JOB_CANCEL, the connection closing, shutdown) and its
+ * time limit, and the batch returns -ECANCELED.  Methods that run no blocks
  * (tensor rules and their Gauss-Legendre nodes, Gauss-Kronrod, cubature)
  * poll the same check through the spec's interrupt hook about every
- * QMC_INTERRUPT_EVALS evaluations and stop with QMC_ECANCELED; either way
+ * QMC_INTERRUPT_EVALS evaluations and stop with QMC_ECANCELED (the hook is
+ * also where they hand their slot to other connections' work); either way
  * the answer follows from the cancel flag, never from a partial result.
  *
- * Finished jobs go on a done list and the worker writes the eventfd; the
+ * Finished jobs come back through the pool's done list and eventfd; the
  * loop then answers JOB_RESULT or ERROR, tagged with the INTEGRATE's
- * request id.  Workers never touch connections, sockets or the loop's
- * state; the loop never runs blocks.
+ * request id.  Runner threads never touch connections, sockets or the
+ * loop's state; the loop never runs blocks.
  */
 #define _GNU_SOURCE
 #include <errno.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include "jobs.h"
 #include "log.h"
+#include "pool.h"
 
 enum { CANCEL_NONE = 0, CANCEL_CLIENT, CANCEL_TIMEOUT, CANCEL_SHUTDOWN, CANCEL_GONE };
 
-typedef struct batch batch;
-
 struct qmcd_job {
+    qmcd_pool_task task;         /* first: the pool hands &job->task back */
     qmcd_job *conn_next;         /* loop: the connection's unanswered jobs */
-    qmcd_job *q_next;            /* pool mutex: queue or done list */
     qmcd_conn *conn;             /* loop: NULL once the connection is gone */
-    qmcd_pool *pool;
     uint64_t id, request_id;
     uint32_t progress_ms;
     int64_t t0_us;               /* request decoded (latency) */
@@ -68,29 +61,6 @@ struct qmcd_job {
     double reference;            /* qmc_job_reference, taken on the worker */
     int reference_kind;          /* 0 none, 1 exact, 2 high-accuracy */
     int finished;                /* loop: the worker is done with it */
-};
-
-struct batch {
-    batch *next;                 /* pool mutex: open batches */
-    qmcd_job *job;
-    const qmc_sampling_job *sj;
-    uint64_t first, count;
-    qmc_sampling_sums *out;
-    atomic_uint_fast64_t next_block;
-    atomic_int err;
-    unsigned helpers;            /* pool mutex: workers inside it */
-};
-
-struct qmcd_pool {
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
-    pthread_t *threads;
-    unsigned n_threads;
-    qmcd_job *q_head, *q_tail;
-    qmcd_job *done;
-    batch *batches;
-    int stop;
-    int efd;
 };
 
 /* ---- the block runner (worker threads) ------------------------------------------ */
@@ -134,78 +104,40 @@ static int job_interrupt(void *ctx)
         return 1;
     if (++j->polls % POLL_CLOCK_EVERY != 0)
         return 0;
-    return must_stop(j);
+    if (must_stop(j))
+        return 1;
+    qmcd_pool_yield(&j->task); /* other connections' work may want the slot */
+    return 0;
 }
 
-static void work_blocks(batch *b, void *ws, size_t bytes)
+static int stop_cb(void *ctx)
 {
-    for (;;) {
-        if (atomic_load(&b->err) != 0)
-            return;
-        if (must_stop(b->job)) {
-            int zero = 0;
-            atomic_compare_exchange_strong(&b->err, &zero, -ECANCELED);
-            return;
-        }
-        uint64_t i = atomic_fetch_add(&b->next_block, 1);
-        if (i >= b->count)
-            return;
-        int err = qmc_sampling_run_block(b->sj, b->first + i, ws, bytes, &b->out[i]);
-        if (err) {
-            int zero = 0;
-            atomic_compare_exchange_strong(&b->err, &zero, err);
-            return;
-        }
-        atomic_fetch_add(&b->job->evals, b->out[i].count);
-    }
+    return must_stop(ctx);
+}
+
+/* Pool mutex held: only atomics. */
+static int task_must_stop(qmcd_pool_task *task)
+{
+    return atomic_load(&((qmcd_job *)task)->cancel) != CANCEL_NONE;
 }
 
 static int run_blocks(void *ctx, const qmc_sampling_job *sj, uint64_t first, uint64_t count,
                       qmc_sampling_sums *out)
 {
     qmcd_job *j = ctx;
-    qmcd_pool *pool = j->pool;
-    size_t bytes = qmc_sampling_workspace_bytes(sj);
-    void *ws = malloc(bytes ? bytes : 1);
-    if (!ws)
-        return QMC_ENOMEM;
-    batch b = {.job = j, .sj = sj, .first = first, .count = count, .out = out};
-    atomic_init(&b.next_block, 0);
-    atomic_init(&b.err, 0);
-    /* Open the batch to helpers only when there is more than one block. */
-    int open = count > 1;
-    if (open) {
-        pthread_mutex_lock(&pool->mu);
-        b.next = pool->batches;
-        pool->batches = &b;
-        pthread_cond_broadcast(&pool->cv);
-        pthread_mutex_unlock(&pool->mu);
-    }
-    work_blocks(&b, ws, bytes);
-    free(ws);
-    if (open) {
-        pthread_mutex_lock(&pool->mu);
-        for (batch **link = &pool->batches; *link; link = &(*link)->next)
-            if (*link == &b) {
-                *link = b.next;
-                break;
-            }
-        while (b.helpers)
-            pthread_cond_wait(&pool->cv, &pool->mu);
-        pthread_mutex_unlock(&pool->mu);
-    }
-    return atomic_load(&b.err);
+    return qmcd_pool_run_blocks(&j->task, sj, first, count, out, stop_cb, j, &j->evals);
 }
 
-/* ---- workers --------------------------------------------------------------------- */
+/* ---- on a runner --------------------------------------------------------------------- */
 
 static double seconds_since(int64_t start_ms)
 {
     return start_ms ? (double)(wall_ms() - start_ms) / 1000.0 : 0.0;
 }
 
-static void run_job(qmcd_job *j)
+static void run_job(qmcd_pool_task *task)
 {
+    qmcd_job *j = (qmcd_job *)task;
     atomic_store(&j->start_ms, (long long)wall_ms());
     if (must_stop(j)) {
         j->err = -ECANCELED;
@@ -232,118 +164,17 @@ static void run_job(qmcd_job *j)
     }
 }
 
-static void *worker(void *arg)
-{
-    qmcd_pool *pool = arg;
-    pthread_mutex_lock(&pool->mu);
-    for (;;) {
-        if (pool->stop)
-            break;
-        if (pool->q_head) {
-            qmcd_job *j = pool->q_head;
-            pool->q_head = j->q_next;
-            if (!pool->q_head)
-                pool->q_tail = NULL;
-            pthread_mutex_unlock(&pool->mu);
-            run_job(j);
-            pthread_mutex_lock(&pool->mu);
-            j->q_next = pool->done;
-            pool->done = j;
-            uint64_t one = 1;
-            if (write(pool->efd, &one, sizeof one) < 0) {
-                /* The counter cannot overflow at our rates; nothing to do. */
-            }
-            continue;
-        }
-        batch *b = pool->batches;
-        while (b && atomic_load(&b->next_block) >= b->count)
-            b = b->next;
-        if (b) {
-            b->helpers++;
-            pthread_mutex_unlock(&pool->mu);
-            size_t bytes = qmc_sampling_workspace_bytes(b->sj);
-            void *ws = malloc(bytes ? bytes : 1);
-            if (ws)
-                work_blocks(b, ws, bytes);
-            free(ws);
-            pthread_mutex_lock(&pool->mu);
-            b->helpers--;
-            pthread_cond_broadcast(&pool->cv);
-            continue;
-        }
-        pthread_cond_wait(&pool->cv, &pool->mu);
-    }
-    pthread_mutex_unlock(&pool->mu);
-    return NULL;
-}
-
-int qmcd_pool_new(unsigned threads, qmcd_pool **out)
-{
-    *out = NULL;
-    qmcd_pool *pool = calloc(1, sizeof *pool);
-    if (!pool)
-        return -ENOMEM;
-    pool->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    pool->threads = calloc(threads, sizeof *pool->threads);
-    if (pool->efd < 0 || !pool->threads)
-        goto fail;
-    pthread_mutex_init(&pool->mu, NULL);
-    pthread_cond_init(&pool->cv, NULL);
-    for (unsigned i = 0; i < threads; i++) {
-        int err = pthread_create(&pool->threads[i], NULL, worker, pool);
-        if (err) {
-            qmcd_err("starting worker %u: %s", i, strerror(err));
-            qmcd_pool_free(pool, 0);
-            return -err;
-        }
-        pool->n_threads++;
-    }
-    *out = pool;
-    return 0;
-fail:
-    if (pool->efd >= 0)
-        close(pool->efd);
-    free(pool->threads);
-    free(pool);
-    return -ENOMEM;
-}
-
-int qmcd_pool_eventfd(const qmcd_pool *pool)
-{
-    return pool->efd;
-}
-
-void qmcd_pool_free(qmcd_pool *pool, int jobs_running)
-{
-    if (!pool)
-        return;
-    pthread_mutex_lock(&pool->mu);
-    pool->stop = 1;
-    pthread_cond_broadcast(&pool->cv);
-    pthread_mutex_unlock(&pool->mu);
-    if (jobs_running)
-        return; /* exit() ends them; their memory must stay valid until then */
-    for (unsigned i = 0; i < pool->n_threads; i++)
-        pthread_join(pool->threads[i], NULL);
-    while (pool->done) {
-        qmcd_job *j = pool->done;
-        pool->done = j->q_next;
-        qmc_job_free(j->job);
-        free(j);
-    }
-    pthread_mutex_destroy(&pool->mu);
-    pthread_cond_destroy(&pool->cv);
-    close(pool->efd);
-    free(pool->threads);
-    free(pool);
-}
-
 /* ---- loop side --------------------------------------------------------------------- */
 
 static void job_free(qmcd_job *j)
 {
     qmc_job_free(j->job);
     free(j);
+}
+
+static void task_free(qmcd_pool_task *task)
+{
+    job_free((qmcd_job *)task);
 }
 
 static void unlink_job(qmcd_conn *c, qmcd_job *j)
@@ -372,6 +203,30 @@ int qmcd_jobs_has_request(const qmcd_conn *c, uint64_t request_id)
     return 0;
 }
 
+/* Detaches j from its connection unanswered: a running job is told to
+ * stop and freed by qmcd_jobs_on_done, a finished one now. */
+static void detach(qmcd_job *j)
+{
+    if (j->finished) {
+        job_free(j);
+        return;
+    }
+    int none = CANCEL_NONE;
+    atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
+    j->conn = NULL;
+}
+
+void qmcd_jobs_end_request(qmcd_conn *c, uint64_t request_id)
+{
+    for (qmcd_job *j = c->jobs; j; j = j->conn_next)
+        if (j->request_id == request_id) {
+            unlink_job(c, j);
+            c->srv->stats.jobs_cancelled++;
+            detach(j);
+            return;
+        }
+}
+
 /* Copies a decoded list (raw little-endian bytes) into doubles. */
 static double *copy_list(const qmc_f64s *l)
 {
@@ -397,6 +252,10 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
                         (unsigned long long)srv->cfg.max_jobs);
         return;
     }
+    if (!c->tenant && qmcd_pool_tenant_new(srv->pool, &c->peer_key, &c->tenant) != 0) {
+        qmcd_conn_error(c, m->request_id, QMC_ENOMEM, "out of memory");
+        return;
+    }
     qmc_job_spec spec = g->spec;
     double *a = g->a.count ? copy_list(&g->a) : NULL;
     double *u = g->u.count ? copy_list(&g->u) : NULL;
@@ -420,7 +279,9 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         return;
     }
     j->conn = c;
-    j->pool = srv->pool;
+    j->task.run = run_job;
+    j->task.free_fn = task_free;
+    j->task.must_stop = task_must_stop;
     j->id = ++srv->next_job_id;
     j->request_id = m->request_id;
     j->progress_ms = g->progress_ms;
@@ -454,16 +315,7 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     srv->stats.jobs_accepted++;
     qmcd_debug("conn %llu: job %llu accepted (%s, %u dims)", (unsigned long long)c->id,
                (unsigned long long)j->id, qmc_method_name(j->spec.method), g->spec.dims);
-    qmcd_pool *pool = srv->pool;
-    pthread_mutex_lock(&pool->mu);
-    j->q_next = NULL;
-    if (pool->q_tail)
-        pool->q_tail->q_next = j;
-    else
-        pool->q_head = j;
-    pool->q_tail = j;
-    pthread_cond_signal(&pool->cv);
-    pthread_mutex_unlock(&pool->mu);
+    qmcd_pool_submit(srv->pool, c->tenant, &j->task);
 }
 
 static void job_state_msg(const qmcd_job *j, uint64_t request_id, qmc_msg *r)
@@ -498,8 +350,41 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     qmcd_answered(c->srv, t0_us);
 }
 
+/* max-cancels-per-conn: a bucket of that many JOB_CANCELs, refilled at
+ * that many a minute.  Cancels are cheap, but they make INTEGRATE churn
+ * cheap too (build a job, cancel it, again): this bounds the churn rate
+ * per connection.  Tokens are kept in 1/60000ths so that the refill is
+ * exact in whole milliseconds.  Returns 1 when this cancel may go on. */
+static int cancel_allowed(qmcd_conn *c)
+{
+    const uint64_t cap = c->srv->cfg.max_cancels_per_conn;
+    const uint64_t full = cap * 60000u;
+    int64_t now = qmcd_now_ms();
+    if (c->cancel_refill_ms == 0) {
+        c->cancel_tokens = full;
+    } else if (now > c->cancel_refill_ms) {
+        uint64_t add = (uint64_t)(now - c->cancel_refill_ms) * cap;
+        c->cancel_tokens = full - c->cancel_tokens <= add ? full : c->cancel_tokens + add;
+    }
+    if (c->cancel_tokens > full) /* the limit shrank on SIGHUP */
+        c->cancel_tokens = full;
+    c->cancel_refill_ms = now;
+    if (c->cancel_tokens < 60000u)
+        return 0;
+    c->cancel_tokens -= 60000u;
+    return 1;
+}
+
 void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
+    if (!cancel_allowed(c)) {
+        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                        "max-cancels-per-conn: more than %llu JOB_CANCEL a minute on this "
+                        "connection; cancel less often",
+                        (unsigned long long)c->srv->cfg.max_cancels_per_conn);
+        qmcd_answered(c->srv, t0_us);
+        return;
+    }
     qmcd_job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);
@@ -512,6 +397,8 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
              * answered ERROR ECANCELED when it stops. */
             job_state_msg(j, m->request_id, &r);
             r.u.state.state = QMC_JOB_CANCELLED;
+            if (atomic_load(&j->start_ms) == 0)
+                qmcd_pool_cancelled(c->srv->pool); /* queued: start it to answer */
         } else {
             job_state_msg(j, m->request_id, &r);
         }
@@ -530,7 +417,9 @@ static int answer(qmcd_conn *c, qmcd_job *j)
     int cancel = atomic_load(&j->cancel);
     int rc;
     if (cancel == CANCEL_TIMEOUT) {
+        /* A failure like any other (jobs_failed), counted apart too. */
         srv->stats.jobs_timed_out++;
+        srv->stats.jobs_failed++;
         rc = qmcd_conn_error(c, j->request_id, -ETIMEDOUT,
                              "job-time-limit-ms: job %llu ran past %llu ms and was cancelled",
                              (unsigned long long)j->id, (unsigned long long)j->time_limit_ms);
@@ -595,14 +484,10 @@ void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     uint64_t n;
     if (read(w->fd, &n, sizeof n) < 0 && errno != EAGAIN)
         qmcd_warn("eventfd read: %s", strerror(errno));
-    qmcd_pool *pool = srv->pool;
-    pthread_mutex_lock(&pool->mu);
-    qmcd_job *done = pool->done;
-    pool->done = NULL;
-    pthread_mutex_unlock(&pool->mu);
+    qmcd_pool_task *done = qmcd_pool_take_done(srv->pool);
     while (done) {
-        qmcd_job *j = done;
-        done = j->q_next;
+        qmcd_job *j = (qmcd_job *)done;
+        done = done->next;
         j->finished = 1;
         srv->n_jobs--;
         qmcd_debug("job %llu finished: %s in %.3f s", (unsigned long long)j->id,
@@ -642,18 +527,23 @@ void qmcd_jobs_tick(qmcd_conn *c, int64_t now)
 
 void qmcd_jobs_drop_all(qmcd_conn *c)
 {
+    int queued = 0;
+    qmcd_pool_tenant_release(c->srv->pool, c->tenant);
+    c->tenant = NULL;
     while (c->jobs) {
         qmcd_job *j = c->jobs;
         c->jobs = j->conn_next;
         c->n_jobs--;
-        if (j->finished) {
-            job_free(j);
-        } else {
-            int none = CANCEL_NONE;
-            atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
-            j->conn = NULL; /* qmcd_jobs_on_done frees it */
-        }
+        /* Accepted and never answered: neither done, failed nor
+         * cancelled, so STATS counts it here (jobs_accepted = done +
+         * failed + cancelled + dropped once none is open). */
+        c->srv->stats.jobs_dropped++;
+        if (!j->finished)
+            queued |= atomic_load(&j->start_ms) == 0;
+        detach(j);
     }
+    if (queued)
+        qmcd_pool_cancelled(c->srv->pool); /* let them end now, not in turn */
 }
 
 void qmcd_jobs_cancel_all(qmcd_server *srv)
@@ -663,4 +553,5 @@ void qmcd_jobs_cancel_all(qmcd_server *srv)
             int none = CANCEL_NONE;
             atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_SHUTDOWN);
         }
+    qmcd_pool_cancelled(srv->pool);
 }

@@ -8,17 +8,10 @@
 #include <stdint.h>
 
 #include "conn.h"
+#include "pool.h"
 #include "qmc/proto.h"
 
-/* Starts `threads` workers and the eventfd they report through.  Signals
- * must already be blocked (workers inherit the mask). */
-int qmcd_pool_new(unsigned threads, qmcd_pool **out);
-int qmcd_pool_eventfd(const qmcd_pool *pool);
-/* Stops and joins the workers; with jobs still running at exit (one
- * integrand call that outlasts the deadline) it leaves them be and frees
- * nothing they use. */
-void qmcd_pool_free(qmcd_pool *pool, int jobs_running);
-
+/* The pool itself (qmcd_pool_new, _eventfd, _free) is pool.h's. */
 /* Request handlers. */
 void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
 void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
@@ -26,6 +19,9 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
 
 /* 1 when an unanswered job of the connection came from request_id. */
 int qmcd_jobs_has_request(const qmcd_conn *c, uint64_t request_id);
+/* Ends the job of request_id, if any, without an answer (the caller sends
+ * the ERROR that ends it): the job is cancelled and counted so. */
+void qmcd_jobs_end_request(qmcd_conn *c, uint64_t request_id);
 
 /* The eventfd watch: finished jobs come back to the loop here. */
 void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events);

@@ -25,6 +25,7 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "listen.h"
 #include "log.h"
@@ -227,19 +228,41 @@ static int split_host_port(const char *spec, char *host, size_t hn, char *port, 
     return 0;
 }
 
-int qmcd_listen_tcp(const char *spec, qmcd_listener *l, char *why, size_t n)
+/* Who may reach a TCP listener: anyone on the network unless it is on
+ * loopback, so off loopback the daemon runs only with a key - refused
+ * here before the socket is even created. */
+#define NEEDS_KEY_WHY                                                                  \
+    "a TCP listener off loopback needs --auth-key FILE (anyone who can reach it "      \
+    "could use the daemon; see docs/SECURITY.md); use tcp:127.0.0.1:PORT or tcp::PORT " \
+    "for this host only"
+
+/* key_rule: a qmcd listener (the key rule above applies, and tcp::PORT is
+ * loopback); 0 for the Modbus listeners, which share the socket code but
+ * not the rule - Modbus has no authentication, and modbus-allow
+ * (modbus_tcp.c) guards them instead. */
+static int open_tcp(const char *spec, qmcd_listener *l, int key_rule, int have_key, char *why,
+                    size_t n)
 {
     char host[256], port[32];
     if (split_host_port(spec, host, sizeof host, port, sizeof port) != 0) {
         snprintf(why, n, "tcp:%s: want tcp:HOST:PORT or tcp:[IPV6]:PORT, PORT 0..65535", spec);
         return -1;
     }
+    /* tcp::PORT is loopback: every interface has to be asked for by
+     * name (tcp:0.0.0.0:PORT, tcp:[::]:PORT), and then needs a key.  (The
+     * Modbus listeners keep getaddrinfo's passive default.) */
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM,
-                             .ai_flags = AI_PASSIVE | AI_NUMERICSERV};
+                             .ai_flags = (key_rule ? 0 : AI_PASSIVE) | AI_NUMERICSERV};
     struct addrinfo *res = NULL;
-    int gai = getaddrinfo(host[0] ? host : NULL, port, &hints, &res);
+    int gai = getaddrinfo(host[0] ? host : key_rule ? "127.0.0.1" : NULL, port, &hints, &res);
     if (gai != 0) {
         snprintf(why, n, "tcp:%s: %s", spec, gai_strerror(gai));
+        return -1;
+    }
+    l->needs_key = key_rule && !qmcd_auth_is_loopback(res->ai_addr);
+    if (l->needs_key && !have_key) {
+        snprintf(why, n, "tcp:%s: %s", spec, NEEDS_KEY_WHY);
+        freeaddrinfo(res);
         return -1;
     }
     int fd = socket(res->ai_family, res->ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC,
@@ -264,6 +287,11 @@ int qmcd_listen_tcp(const char *spec, qmcd_listener *l, char *why, size_t n)
     l->path[0] = '\0';
     name_of(fd, l->name, sizeof l->name);
     return 0;
+}
+
+int qmcd_listen_tcp(const char *hostport, qmcd_listener *l, char *why, size_t why_bytes)
+{
+    return open_tcp(hostport, l, 0, 0, why, why_bytes);
 }
 
 static const char *default_socket(char *buf, size_t n)
@@ -317,6 +345,15 @@ int qmcd_listeners_open(qmcd_server *srv, char *why, size_t why_bytes)
         }
         name_of(l->w.fd, l->name, sizeof l->name);
         l->path[0] = '\0'; /* systemd owns the file */
+        struct sockaddr_storage ss;
+        socklen_t sl = sizeof ss;
+        if (getsockname(l->w.fd, (struct sockaddr *)&ss, &sl) == 0 &&
+            (ss.ss_family == AF_INET || ss.ss_family == AF_INET6))
+            l->needs_key = !qmcd_auth_is_loopback((struct sockaddr *)&ss);
+        if (l->needs_key && !qmcd_auth_has_key(srv->auth)) {
+            snprintf(why, why_bytes, "socket activation: %s: %s", l->name, NEEDS_KEY_WHY);
+            goto fail;
+        }
     }
     for (unsigned i = 0; i < cfg->n_listen || default_path; i++) {
         const char *spec = default_path ? NULL : cfg->listen[i];
@@ -327,7 +364,7 @@ int qmcd_listeners_open(qmcd_server *srv, char *why, size_t why_bytes)
         else if (strncmp(spec, "unix:", 5) == 0)
             rc = open_unix(spec + 5, l, why, why_bytes);
         else
-            rc = qmcd_listen_tcp(spec + 4, l, why, why_bytes);
+            rc = open_tcp(spec + 4, l, 1, qmcd_auth_has_key(srv->auth), why, why_bytes);
         if (rc != 0)
             goto fail;
         srv->n_listeners++;

@@ -13,6 +13,8 @@ struct qmcd_listener {
     char path[QMCD_PATH_BYTES];       /* a unix socket file we created, or "" */
     int paused;                       /* out of descriptors: not polled until
                                          the next tick (see qmcd_conn_on_accept) */
+    int needs_key;                    /* TCP on a non-loopback address: may only
+                                         run with an auth-key (auth.c) */
 };
 
 /*

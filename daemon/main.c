@@ -23,6 +23,7 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
+#include "auth.h"
 #include "conn.h"
 #include "jobs.h"
 #include "listen.h"
@@ -30,6 +31,7 @@
 #include "loop.h"
 #include "main.h"
 #include "modbus_bridge.h"
+#include "peers.h"
 #include "points.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
@@ -37,6 +39,23 @@ void qmcd_main_notify(qmcd_server *srv, const char *state)
     (void)srv;
     /* 0 when NOTIFY_SOCKET is unset: not under systemd, nothing to do. */
     (void)sd_notify(0, state);
+}
+
+/* SIGHUP re-reads the key file and re-checks it (mode, size), so a key
+ * rotates without a restart and a key file opened up to others stops the
+ * reload; a listener off loopback may never be left without a key. */
+static int qmcd_main_reload_key(qmcd_server *srv, const qmcd_config *fresh, char *why,
+                                size_t n)
+{
+    if (!fresh->auth_key[0]) {
+        for (unsigned i = 0; i < srv->n_listeners; i++)
+            if (srv->listeners[i].needs_key) {
+                snprintf(why, n, "auth-key removed, but %s is off loopback and needs one",
+                         srv->listeners[i].name);
+                return -1;
+            }
+    }
+    return qmcd_auth_load_key(srv->auth, fresh, why, n);
 }
 
 void qmcd_main_reload(qmcd_server *srv)
@@ -50,6 +69,9 @@ void qmcd_main_reload(qmcd_server *srv)
     qmcd_main_notify(srv, status);
     if (qmcd_config_load(&srv->args, &fresh, why, sizeof why) != 0) {
         qmcd_err("reload rejected, keeping the running configuration: %s", why);
+        snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
+    } else if (qmcd_main_reload_key(srv, &fresh, why, sizeof why) != 0) {
+        qmcd_err("reload rejected, keeping the running configuration and key: %s", why);
         snprintf(status, sizeof status, "READY=1\nSTATUS=serving; reload rejected: %s", why);
     } else {
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
@@ -147,11 +169,28 @@ int main(int argc, char **argv)
         return rc > 0 ? 0 : 2;
     char why[512];
     qmcd_log_init();
+    static char base_dir[QMCD_PATH_BYTES]; /* read again on every SIGHUP */
+    if (getcwd(base_dir, sizeof base_dir))
+        srv.args.base_dir = base_dir;
     if (qmcd_config_load(&srv.args, &srv.cfg, why, sizeof why) != 0) {
         fprintf(stderr, "qmcd: %s\n", why);
         return 2;
     }
     if (srv.args.check_only) {
+        /* The key file's rule (mode, size) is checked too; whether a TCP
+         * listener is off loopback is only known once it is resolved, at
+         * start. */
+        qmcd_auth *a = NULL;
+        const char *problem = NULL;
+        if (qmcd_auth_new(&a) != 0)
+            problem = "cannot initialise libsodium";
+        else if (qmcd_auth_load_key(a, &srv.cfg, why, sizeof why) != 0)
+            problem = why;
+        qmcd_auth_free(a);
+        if (problem) {
+            fprintf(stderr, "qmcd: %s\n", problem);
+            return 2;
+        }
         printf("qmcd: %s: configuration is valid\n",
                srv.args.config_path ? srv.args.config_path : QMCD_DEFAULT_CONFIG);
         return 0;
@@ -169,15 +208,28 @@ int main(int argc, char **argv)
     srv.epfd = srv.sig.fd = srv.tick.fd = srv.done.fd = -1;
     /* An FNV pass over all 21201 dimensions' numbers: once, not per HELLO. */
     srv.sobol_table_hash = qmc_sobol_table_hash();
+    /* The key before the listeners: a listener off loopback is refused
+     * without one, before it is bound. */
+    if (qmcd_auth_new(&srv.auth) != 0) {
+        fprintf(stderr, "qmcd: cannot initialise libsodium\n");
+        return 1;
+    }
+    if (qmcd_auth_load_key(srv.auth, &srv.cfg, why, sizeof why) != 0) {
+        fprintf(stderr, "qmcd: %s\n", why);
+        qmcd_auth_free(srv.auth);
+        return 2;
+    }
     if (qmcd_listeners_open(&srv, why, sizeof why) != 0) {
         fprintf(stderr, "qmcd: %s\n", why);
         free(srv.listeners);
+        qmcd_auth_free(srv.auth);
         return 1;
     }
     if (qmcd_modbus_open(&srv, why, sizeof why) != 0) {
         fprintf(stderr, "qmcd: %s\n", why);
         qmcd_listeners_close(&srv);
         free(srv.listeners);
+        qmcd_auth_free(srv.auth);
         return 1;
     }
     /* Under systemd (a notify socket is given) qmcd never forks: the unit
@@ -220,6 +272,8 @@ int main(int argc, char **argv)
     if (!err)
         err = qmcd_seqcache_new(&srv.seqs);
     if (!err)
+        err = qmcd_peers_new(&srv.peers);
+    if (!err)
         err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
     if (!err)
         err = qmcd_listeners_start(&srv);
@@ -257,8 +311,10 @@ out:
     qmcd_modbus_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_seqcache_free(srv.seqs);
+    qmcd_peers_free(srv.peers);
     qmcd_loop_close(&srv);
     free(srv.listeners);
+    qmcd_auth_free(srv.auth);
     if (srv.cfg.ready_file[0])
         unlink(srv.cfg.ready_file);
     return rc;

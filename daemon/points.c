@@ -16,10 +16,8 @@
  * only a 48-byte frame naming the slot is queued.  A slot is free again
  * when SHM_RELEASE hands it back (oldest first), so the ring is the bound:
  * a client that never releases stalls its own shm streams and nothing
- * else, and costs no memory beyond its own ring.  The memfd must be sealed
- * against shrinking (a truncated mapping would SIGBUS the daemon) and fully
- * allocated by the client before it is attached (so its pages are charged
- * to the client, not to us); both are checked at SHM_ATTACH.
+ * else, and costs no memory beyond its own ring.  Attaching the ring (and
+ * what keeps its pages the client's) is ring.c.
  *
  * Streams of one connection take turns, one chunk each; a stream that
  * cannot go on (no slot free, no output room) lets the others pass.
@@ -33,21 +31,15 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <sys/vfs.h>
-#include <unistd.h>
 
 #include "log.h"
 #include "points.h"
+#include "ring.h"
 
 #define CACHE_IDLE 8
-/* statfs f_type of shmem (memfd_create, tmpfs): linux/magic.h. */
-#define SHMEM_MAGIC 0x01021994
 
 typedef struct seq_entry {
     struct seq_entry *next;
@@ -75,19 +67,6 @@ struct qmcd_stream {
     uint32_t chunk_points;       /* whole points per chunk */
     int shm;                     /* 1: through the connection's ring */
     int64_t t0_us;
-};
-
-/* A client's ring: its memfd mapped shared, cut into equal slots that are
- * filled in order 0, 1, ... slots - 1, 0, ... and handed back oldest first,
- * so the free slots are always the `slots - held` after the held ones. */
-struct qmcd_ring {
-    uint8_t *base;
-    size_t bytes;                /* slots * slot_bytes */
-    uint32_t slots, slot_bytes;
-    uint32_t next;               /* the slot the next chunk goes to */
-    uint32_t held;               /* given to the client, not yet released */
-    uint32_t unsent;             /* chunks queued since the last flush hint */
-    int64_t full_ms;             /* when the last free slot was taken, or 0 */
 };
 
 int qmcd_seqcache_new(qmcd_seqcache **out)
@@ -379,12 +358,15 @@ int qmcd_points_has_request(const qmcd_conn *c, uint64_t request_id)
     return 0;
 }
 
-static void ring_free(qmcd_ring *r)
+void qmcd_points_end_request(qmcd_conn *c, uint64_t request_id)
 {
-    if (!r)
-        return;
-    munmap(r->base, r->bytes);
-    free(r);
+    for (qmcd_stream **link = &c->streams; *link; link = &(*link)->next)
+        if ((*link)->request_id == request_id) {
+            qmcd_stream *s = *link;
+            *link = s->next;
+            stream_free(c, s);
+            return;
+        }
 }
 
 void qmcd_points_drop_all(qmcd_conn *c)
@@ -394,7 +376,7 @@ void qmcd_points_drop_all(qmcd_conn *c)
         c->streams = s->next;
         stream_free(c, s);
     }
-    ring_free(c->ring);
+    qmcd_ring_free(c->ring);
     c->ring = NULL;
 }
 
@@ -605,175 +587,4 @@ int64_t qmcd_points_ring_stalled_ms(const qmcd_conn *c)
         if (waits_for_slot(c, s))
             return c->ring->full_ms;
     return 0;
-}
-
-/* ---- SHM_ATTACH and SHM_RELEASE ---------------------------------------------- */
-
-/* The descriptor must be a memfd (a regular file on shmem: not hugetlbfs,
- * whose faults can fail with SIGBUS, nor a disk file), sealed so that it
- * cannot shrink under our mapping, writable, and as long as the ring.
- * Returns 0 or an error code with the reason in why. */
-static int check_memfd(int fd, uint64_t bytes, char *why, size_t n)
-{
-    struct stat st;
-    struct statfs sf;
-    if (fstat(fd, &st) != 0 || fstatfs(fd, &sf) != 0) {
-        int e = -errno;
-        snprintf(why, n, "SHM_ATTACH: cannot inspect the descriptor: %s", qmc_strerror(e));
-        return e;
-    }
-    if (!S_ISREG(st.st_mode) || sf.f_type != SHMEM_MAGIC) {
-        snprintf(why, n, "SHM_ATTACH: the descriptor is not a memfd (memfd_create without "
-                         "MFD_HUGETLB)");
-        return QMC_EINVAL;
-    }
-    int seals = fcntl(fd, F_GET_SEALS);
-    if (seals < 0) {
-        snprintf(why, n, "SHM_ATTACH: the memfd has no seals (create it with "
-                         "MFD_ALLOW_SEALING and seal it with F_SEAL_SHRINK)");
-        return QMC_EINVAL;
-    }
-    if (!(seals & F_SEAL_SHRINK)) {
-        snprintf(why, n, "SHM_ATTACH: the memfd is not sealed with F_SEAL_SHRINK (the server "
-                         "maps it, and a file that may shrink under a mapping would crash it)");
-        return QMC_EINVAL;
-    }
-    int write_seals = F_SEAL_WRITE;
-#ifdef F_SEAL_FUTURE_WRITE
-    write_seals |= F_SEAL_FUTURE_WRITE;
-#endif
-    if (seals & write_seals) {
-        snprintf(why, n, "SHM_ATTACH: the memfd is sealed against writing");
-        return QMC_EINVAL;
-    }
-    if (st.st_size < 0 || (uint64_t)st.st_size < bytes) {
-        snprintf(why, n, "SHM_ATTACH: the memfd holds %lld bytes, less than the ring's %llu",
-                 (long long)st.st_size, (unsigned long long)bytes);
-        return QMC_EINVAL;
-    }
-    return 0;
-}
-
-/* Every page of the mapping must already be allocated (the client wrote
- * it or called fallocate): we only write into pages the client paid for,
- * and a ring with holes would be filled at the server's expense. */
-static int check_populated(uint8_t *base, size_t bytes, char *why, size_t n)
-{
-    long page = sysconf(_SC_PAGESIZE);
-    if (page <= 0)
-        page = 4096;
-    unsigned char vec[256];
-    const size_t window = sizeof vec * (size_t)page;
-    for (size_t off = 0; off < bytes; off += window) {
-        size_t len = bytes - off < window ? bytes - off : window;
-        if (mincore(base + off, len, vec) != 0) {
-            int e = -errno;
-            snprintf(why, n, "SHM_ATTACH: mincore: %s", qmc_strerror(e));
-            return e;
-        }
-        size_t pages = (len + (size_t)page - 1) / (size_t)page;
-        for (size_t i = 0; i < pages; i++)
-            if (!(vec[i] & 1)) {
-                snprintf(why, n, "SHM_ATTACH: the memfd is not populated (page at byte %zu "
-                                 "is not allocated): write it or fallocate it before "
-                                 "attaching", off + i * (size_t)page);
-                return QMC_EINVAL;
-            }
-    }
-    return 0;
-}
-
-void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
-{
-    const qmc_msg_shm *a = &m->u.shm;
-    const qmcd_config *cfg = &c->srv->cfg;
-    const uint64_t bytes = (uint64_t)a->slots * a->slot_bytes;
-    char why[256] = "";
-    int err = 0;
-    void *base = MAP_FAILED;
-    qmcd_ring *r = NULL;
-    if (!c->unix_socket) {
-        err = QMC_ENOTSUP;
-        snprintf(why, sizeof why, "SHM_ATTACH needs a Unix-socket connection (the memfd "
-                                  "travels with SCM_RIGHTS)");
-    } else if (cfg->max_shm_bytes == 0) {
-        err = QMC_ENOTSUP;
-        snprintf(why, sizeof why, "the shared-memory transport is off on this server "
-                                  "(max-shm-bytes = 0)");
-    } else if (c->ring) {
-        err = QMC_EINVAL;
-        snprintf(why, sizeof why, "SHM_ATTACH: a ring is already attached to this connection");
-    } else if (fd < 0) {
-        err = QMC_EINVAL;
-        snprintf(why, sizeof why, "SHM_ATTACH came without a file descriptor (send the memfd "
-                                  "with SCM_RIGHTS in the sendmsg that carries the frame)");
-    } else if (bytes > cfg->max_shm_bytes) {
-        err = QMC_ETOOBIG;
-        snprintf(why, sizeof why, "max-shm-bytes: a ring of %u x %u bytes exceeds the "
-                                  "%llu-byte limit", a->slots, a->slot_bytes,
-                 (unsigned long long)cfg->max_shm_bytes);
-    } else {
-        err = check_memfd(fd, bytes, why, sizeof why);
-    }
-    if (!err) {
-        base = mmap(NULL, (size_t)bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-        if (base == MAP_FAILED) {
-            err = -errno;
-            snprintf(why, sizeof why, "SHM_ATTACH: cannot map the memfd: %s",
-                     qmc_strerror(err));
-        }
-    }
-    if (!err)
-        err = check_populated(base, (size_t)bytes, why, sizeof why);
-    if (!err && !(r = calloc(1, sizeof *r))) {
-        err = QMC_ENOMEM;
-        snprintf(why, sizeof why, "out of memory");
-    }
-    if (fd >= 0)
-        close(fd); /* the mapping keeps the memory; the descriptor is not needed */
-    if (err) {
-        if (base != MAP_FAILED)
-            munmap(base, (size_t)bytes);
-        qmcd_conn_error(c, m->request_id, err, "%s", why);
-        return;
-    }
-#ifdef MADV_POPULATE_WRITE
-    /* Map every page now (they exist: checked above), so the first lap of
-     * the ring takes no page faults.  Only a speed-up: errors are fine. */
-    (void)madvise(base, (size_t)bytes, MADV_POPULATE_WRITE);
-#endif
-    r->base = base;
-    r->bytes = (size_t)bytes;
-    r->slots = a->slots;
-    r->slot_bytes = a->slot_bytes;
-    c->ring = r;
-    qmcd_debug("conn %llu: ring of %u x %u bytes attached", (unsigned long long)c->id,
-               a->slots, a->slot_bytes);
-    qmc_msg ok = {.type = QMC_MSG_SHM_OK, .request_id = m->request_id};
-    ok.u.shm = *a;
-    if (qmcd_conn_send(c, &ok) == 0)
-        qmcd_answered(c->srv, t0_us);
-}
-
-void qmcd_points_shm_release(qmcd_conn *c, const qmc_msg *m)
-{
-    qmcd_ring *r = c->ring;
-    uint32_t n = m->u.release.slots;
-    if (m->request_id != 0) {
-        qmcd_conn_fail(c, m->request_id, QMC_EPROTO,
-                       "SHM_RELEASE must carry request id 0, not %llu",
-                       (unsigned long long)m->request_id);
-        return;
-    }
-    if (!r) {
-        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE without an attached ring");
-        return;
-    }
-    if (n > r->held) {
-        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE of %u slots, but the client holds only %u",
-                       n, r->held);
-        return;
-    }
-    r->held -= n;
-    r->full_ms = 0;
 }

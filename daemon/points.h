@@ -44,6 +44,9 @@ void qmcd_points_shm_release(qmcd_conn *c, const qmc_msg *m);
 
 /* 1 when a stream of the connection answers request_id. */
 int qmcd_points_has_request(const qmcd_conn *c, uint64_t request_id);
+/* Stops the stream of request_id, if any, without END (the caller sends
+ * the ERROR that ends it). */
+void qmcd_points_end_request(qmcd_conn *c, uint64_t request_id);
 
 /* Drops every stream of the connection and unmaps its ring (it is
  * closing). */

@@ -16,6 +16,8 @@ typedef struct qmcd_conn qmcd_conn;
 typedef struct qmcd_pool qmcd_pool;
 typedef struct qmcd_seqcache qmcd_seqcache;
 typedef struct qmcd_listener qmcd_listener;
+typedef struct qmcd_auth qmcd_auth;
+typedef struct qmcd_peers qmcd_peers;
 typedef struct qmcd_modbus qmcd_modbus;
 
 /* epoll_event.data.ptr points at one of these: the handler runs on the
@@ -36,11 +38,20 @@ struct qmcd_server {
     qmcd_conn *conns;          /* doubly linked, newest first */
     qmcd_conn *dead_conns;     /* closed this round; freed after it */
     uint64_t n_conns, next_conn_id, next_job_id;
+    qmcd_peers *peers;         /* connections by peer (peers.c) */
+    unsigned n_refusing;       /* refused connections still lingering */
+    uint64_t out_over_bytes;   /* output buffers beyond their floors (conn.c) */
+    unsigned n_out_waiting;    /* connections whose streams wait for them */
+    int out_wake;              /* some came free: wake the waiters */
+    int shm_seal_probe;        /* ring.c: 1 sealed memfds resist punching, -1 not, 0 untried */
+    int64_t refusal_log_ms;    /* last refusal logged (one line a second) */
+    uint64_t refusals_unlogged;
     uint64_t sobol_table_hash;  /* computed once: it hashes the whole table */
     uint64_t n_jobs;           /* queued + running, all connections */
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
     qmcd_stats stats;
+    qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
     int draining;              /* SIGTERM seen: no new work */
     int64_t drain_deadline_ms; /* then cancel what still runs */

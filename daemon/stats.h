@@ -28,7 +28,10 @@
     X(jobs_failed, "jobs_failed")                           \
     X(jobs_cancelled, "jobs_cancelled")                     \
     X(jobs_timed_out, "jobs_timed_out")                     \
-    X(reloads, "config_reloads")
+    X(reloads, "config_reloads")                            \
+    X(jobs_dropped, "jobs_dropped")                         \
+    X(auth_failures, "auth_failures")                       \
+    X(auth_lockouts, "auth_lockouts")
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */

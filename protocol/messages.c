@@ -157,7 +157,10 @@ enum {
     FIXED_ERROR = 4,
     FIXED_SHM = 16,
     FIXED_SHM_CHUNK = 24,
-    FIXED_SHM_RELEASE = 4
+    FIXED_SHM_RELEASE = 4,
+    FIXED_AUTH_CHALLENGE = 4 + QMC_PROTO_AUTH_NONCE_BYTES,
+    FIXED_AUTH_RESPONSE = QMC_PROTO_AUTH_NONCE_BYTES + QMC_PROTO_AUTH_MAC_BYTES,
+    FIXED_AUTH_OK = QMC_PROTO_AUTH_MAC_BYTES
 };
 
 static void io_hello(qmc__io *io, qmc_msg *m)
@@ -437,6 +440,41 @@ static void io_shm_release(qmc__io *io, qmc_msg *m)
         qmc__io_invalid(io);
 }
 
+/* n opaque bytes held in the message itself (nonces, MACs): copied, not
+ * viewed, so a decoded handshake message outlives the receive buffer. */
+static void io_fixed_bytes(qmc__io *io, uint8_t *bytes, size_t n)
+{
+    if (io->decode) {
+        const uint8_t *p = qmc__rd_take(&io->rd, n);
+        if (qmc__io_rd_ok(io))
+            memcpy(bytes, p, n);
+        return;
+    }
+    qmc__wr_bytes(&io->wr, bytes, n);
+}
+
+static void io_auth_challenge(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_auth_challenge *a = &m->u.challenge;
+    qmc__io_u16(io, &a->version);
+    qmc__io_zero(io, 2);
+    io_fixed_bytes(io, a->nonce, sizeof a->nonce);
+    /* Only a version that has the handshake can be announced by it. */
+    if (a->version < QMC_PROTO_VERSION_AUTH)
+        qmc__io_invalid(io);
+}
+
+static void io_auth_response(qmc__io *io, qmc_msg *m)
+{
+    io_fixed_bytes(io, m->u.response.nonce, sizeof m->u.response.nonce);
+    io_fixed_bytes(io, m->u.response.mac, sizeof m->u.response.mac);
+}
+
+static void io_auth_ok(qmc__io *io, qmc_msg *m)
+{
+    io_fixed_bytes(io, m->u.auth_ok.mac, sizeof m->u.auth_ok.mac);
+}
+
 /* ---- the table ---------------------------------------------------------------
  * Which layout each message uses, and its payload bounds.  Every name in
  * QMC_MSG_MAP needs a LAYOUT_ line: a missing one fails to compile. */
@@ -468,6 +506,9 @@ static void io_shm_release(qmc__io *io, qmc_msg *m)
 #define LAYOUT_SHM_OK LAYOUT_SHM_ATTACH
 #define LAYOUT_POINTS_SHM_CHUNK io_shm_chunk, FIXED_SHM_CHUNK, FIXED_SHM_CHUNK
 #define LAYOUT_SHM_RELEASE io_shm_release, FIXED_SHM_RELEASE, FIXED_SHM_RELEASE
+#define LAYOUT_AUTH_CHALLENGE io_auth_challenge, FIXED_AUTH_CHALLENGE, FIXED_AUTH_CHALLENGE
+#define LAYOUT_AUTH_RESPONSE io_auth_response, FIXED_AUTH_RESPONSE, FIXED_AUTH_RESPONSE
+#define LAYOUT_AUTH_OK io_auth_ok, FIXED_AUTH_OK, FIXED_AUTH_OK
 
 #define ROW_FIELDS(fn, lo, hi) (lo), (hi), fn
 #define ROW_EXPAND(...) ROW_FIELDS(__VA_ARGS__)

@@ -82,6 +82,9 @@ static const known_stat known[] = {
     {"jobs_cancelled", 0, "Jobs cancelled by their client or at shutdown."},
     {"jobs_timed_out", 0, "Jobs stopped by job-time-limit-ms."},
     {"config_reloads", 0, "Configuration reloads applied (SIGHUP)."},
+    {"jobs_dropped", 0, "Jobs whose connection closed before their answer was sent."},
+    {"auth_failures", 0, "Handshakes refused for a wrong key proof."},
+    {"auth_lockouts", 0, "Handshakes refused because the address was locked out."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
 };

@@ -39,6 +39,10 @@ static int hello(qmc_client *c)
     if (err)
         return err;
     err = qmc__client_await(c, id, qmc__client_deadline(c), 0, &m);
+    /* A server that requires the key challenges (PROTOCOL.md 4.1); after
+     * the proofs m holds what followed AUTH_OK. */
+    if (err == 0 && m.type == QMC_MSG_AUTH_CHALLENGE)
+        err = qmc__client_authenticate(c, id, 1, QMC_PROTO_VERSION_MAX, &m);
     if (err == QMC_EPROTO) {
         char text[QMC_CLIENT_MESSAGE_BYTES];
         memcpy(text, c->message, sizeof text);
@@ -56,6 +60,14 @@ static int hello(qmc_client *c)
     if (m.type != QMC_MSG_HELLO_OK)
         return qmc__client_break(c, QMC_EPROTO, "handshake failed: %s instead of HELLO_OK",
                                  qmc_msg_type_name(m.type));
+    /* Over TCP a key means: talk only to a server that proves it holds
+     * it.  One that never asked cannot; a Unix socket's permissions vouch
+     * for its server. */
+    if (c->auth_key_bytes && !c->authenticated && !c->unix_socket)
+        return qmc__client_break(c, QMC_EAUTH, "the server did not ask for authentication, "
+                                 "so it cannot prove it holds our key; refusing it (connect "
+                                 "without --auth-key / QMC_AUTH_KEY_FILE to a server that "
+                                 "has no key)");
     const qmc_msg_hello_ok *h = &m.u.hello_ok;
     if (h->version < 1 || h->version > QMC_PROTO_VERSION_MAX)
         return qmc__client_break(c, QMC_EPROTO, "handshake failed: the server chose "
@@ -81,6 +93,13 @@ int qmc__client_connect_with(const char *endpoint, int timeout_ms,
                              qmc__client_alloc_fn alloc, void *alloc_ctx,
                              qmc_client **out)
 {
+    return qmc__client_connect_key_with(endpoint, timeout_ms, NULL, alloc, alloc_ctx, out);
+}
+
+int qmc__client_connect_key_with(const char *endpoint, int timeout_ms, const char *key_file,
+                                 qmc__client_alloc_fn alloc, void *alloc_ctx,
+                                 qmc_client **out)
+{
     *out = NULL;
     const size_t bytes = sizeof(qmc_client) + QMC__CLIENT_SEND_BYTES + QMC__CLIENT_RECV_BYTES;
     qmc_client *c = alloc(alloc_ctx, bytes);
@@ -99,8 +118,15 @@ int qmc__client_connect_with(const char *endpoint, int timeout_ms,
     if (timeout_ms == 0 || timeout_ms < -1)
         return qmc__client_fail(c, QMC_EINVAL, "timeout %d ms: want > 0, or -1 for none",
                                 timeout_ms);
+    if (!key_file) {
+        const char *env = getenv("QMC_AUTH_KEY_FILE");
+        key_file = env ? env : "";
+    }
+    int err;
+    if (key_file[0] && (err = qmc__client_load_key(c, key_file)) != 0)
+        return err;
     qmc__endpoint ep;
-    int err = qmc__client_endpoint_parse(endpoint, &ep, c->message, sizeof c->message);
+    err = qmc__client_endpoint_parse(endpoint, &ep, c->message, sizeof c->message);
     if (err)
         return err;
     int fd = qmc__client_endpoint_open(&ep, qmc__client_deadline(c), c->message,
@@ -120,6 +146,18 @@ int qmc_client_connect(const char *endpoint, int timeout_ms, qmc_client **out)
     return qmc__client_connect_with(endpoint, timeout_ms, plain_alloc, NULL, out);
 }
 
+int qmc_client_connect_auth(const char *endpoint, int timeout_ms, const char *key_file,
+                            qmc_client **out)
+{
+    return qmc__client_connect_key_with(endpoint, timeout_ms, key_file, plain_alloc, NULL,
+                                        out);
+}
+
+int qmc_client_authenticated(const qmc_client *c)
+{
+    return c && c->fd >= 0 && c->authenticated;
+}
+
 void qmc_client_close(qmc_client *c)
 {
     if (!c)
@@ -127,6 +165,7 @@ void qmc_client_close(qmc_client *c)
     if (c->fd >= 0)
         close(c->fd);
     qmc__client_shm_unmap(c);
+    qmc__client_wipe_key(c);
     free(c);
 }
 

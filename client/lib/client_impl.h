@@ -14,6 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "qmc/auth.h"
 #include "qmc/client.h"
 
 /* ---- endpoints ------------------------------------------------------------ */
@@ -100,6 +101,10 @@ struct qmc_client {
     size_t scap;
     uint32_t max_jobs;
     qmc__client_job jobs[QMC_CLIENT_MAX_JOBS];
+    /* the key (auth.c), wiped at close; authenticated: both proofs held */
+    uint8_t auth_key[QMC_AUTH_KEY_MAX_BYTES];
+    size_t auth_key_bytes;
+    int authenticated;
 };
 
 /* The allocator seam: qmc_client_connect passes malloc; the unit test
@@ -108,6 +113,10 @@ typedef void *(*qmc__client_alloc_fn)(void *ctx, size_t bytes);
 int qmc__client_connect_with(const char *endpoint, int timeout_ms,
                              qmc__client_alloc_fn alloc, void *alloc_ctx,
                              qmc_client **out);
+/* The same, with a key file (NULL: $QMC_AUTH_KEY_FILE if set; "": none). */
+int qmc__client_connect_key_with(const char *endpoint, int timeout_ms, const char *key_file,
+                                 qmc__client_alloc_fn alloc, void *alloc_ctx,
+                                 qmc_client **out);
 
 /* ---- conn.c ------------------------------------------------------------------- */
 
@@ -170,6 +179,19 @@ int qmc__client_shm_release(qmc_client *c);
 int qmc__client_shm_auto(qmc_client *c);
 /* Unmaps the ring (the connection is gone). */
 void qmc__client_shm_unmap(qmc_client *c);
+
+/* ---- auth.c ---------------------------------------------------------------------- */
+
+/* Reads and checks a key file into c.  Returns 0, QMC_EAUTH (mode, size)
+ * or -errno, with the reason in c->message. */
+int qmc__client_load_key(qmc_client *c, const char *path);
+/* Wipes the key from c. */
+void qmc__client_wipe_key(qmc_client *c);
+/* m holds the AUTH_CHALLENGE answering HELLO hello_id (which offered
+ * version_min..version_max): answers it, checks AUTH_OK, and leaves in m
+ * the frame after it (HELLO_OK, or ERROR).  Errors close the connection. */
+int qmc__client_authenticate(qmc_client *c, uint64_t hello_id, uint16_t version_min,
+                             uint16_t version_max, qmc_msg *m);
 
 /* ---- jobs.c --------------------------------------------------------------------- */
 

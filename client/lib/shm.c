@@ -36,7 +36,9 @@ static int make_memfd(qmc_client *c, size_t bytes)
     int err = 0;
     if (ftruncate(fd, (off_t)bytes) != 0) {
         err = -errno;
-    } else if (fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0) {
+    } else if (fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW) != 0) {
+        /* Not F_SEAL_SEAL: the server adds F_SEAL_FUTURE_WRITE once it has
+         * mapped the ring, so that no one can punch holes in it. */
         err = -errno;
         step = "sealing";
     }

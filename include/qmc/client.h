@@ -45,6 +45,16 @@
  * attached every POINTS request on the client uses it (whose points fit a
  * slot).  The output is the same bytes either way.
  *
+ * Authentication: a server that requires its key (protocol version 3,
+ * PROTOCOL.md section 4.1) challenges the client in the handshake; the
+ * client answers with an HMAC-SHA256 proof and checks the server's.  The
+ * key is read from a file (mode 0600 or stricter, 16 to 1024 bytes):
+ * qmc_client_connect_auth's key_file, else $QMC_AUTH_KEY_FILE - so every
+ * program on this library, qmc_client_connect included, authenticates
+ * when that variable is set.  With a key, a tcp: server that does not
+ * challenge is refused (QMC_EAUTH): it could not prove it holds the key.
+ * The key stays in the client's memory, wiped at qmc_client_close.
+ *
  * Threads: a qmc_client is not thread-safe: use each from one thread at a
  * time (one per thread is simplest).  Different clients share nothing and
  * may be used concurrently.  The library never prints, exits or raises
@@ -106,6 +116,23 @@ typedef struct qmc_client_result {
  */
 QMC_MUST_CHECK int qmc_client_connect(const char *endpoint, int timeout_ms,
                                       qmc_client **out);
+
+/*
+ * As qmc_client_connect, with the key in key_file: NULL reads the file
+ * named by $QMC_AUTH_KEY_FILE when it is set (what qmc_client_connect
+ * does), "" uses no key whatever the environment says.  Also returns
+ * QMC_EAUTH: a key file open to group or others or of the wrong size, a
+ * server that requires a key when the client has none, a wrong key (the
+ * server's ERROR), a server whose proof is wrong, or a tcp: server that
+ * does not ask for the key the client holds.  The connection is then
+ * closed, and qmc_client_last_error says which.
+ */
+QMC_MUST_CHECK int qmc_client_connect_auth(const char *endpoint, int timeout_ms,
+                                           const char *key_file, qmc_client **out);
+
+/* 1 when the handshake authenticated both sides (the server challenged
+ * and proved the key), else 0. */
+int qmc_client_authenticated(const qmc_client *c);
 
 /* Closes the connection and frees the client; NULL is a no-op. */
 void qmc_client_close(qmc_client *c);

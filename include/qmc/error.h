@@ -28,7 +28,8 @@ extern "C" {
     X(ENOTSUP,   -1012, "operation not supported")                          \
     X(EDOMAIN,   -1013, "value outside the function's domain")              \
     X(EBUDGET,   -1014, "evaluation budget exceeded")                       \
-    X(ECANCELED, -1015, "stopped by the caller's interrupt hook")
+    X(ECANCELED, -1015, "stopped by the caller's interrupt hook")          \
+    X(EAUTH,     -1016, "authentication failed")
 
 enum {
 #define QMC__ERR_ENUM(name, value, text) QMC_##name = (value),

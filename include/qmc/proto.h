@@ -51,8 +51,14 @@ extern "C" {
 /* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
  * the frame format): 1 is the base set; 2 adds the shared-memory transport
  * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
-#define QMC_PROTO_VERSION_MAX 2u
+#define QMC_PROTO_VERSION_MAX 3u
 #define QMC_PROTO_VERSION_SHM 2u
+/* Version 3 adds the key-based authentication of the handshake
+ * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
+#define QMC_PROTO_VERSION_AUTH 3u
+/* Bytes of each side's nonce and of an HMAC-SHA256 tag in the handshake. */
+#define QMC_PROTO_AUTH_NONCE_BYTES 32u
+#define QMC_PROTO_AUTH_MAC_BYTES 32u
 #define QMC_PROTO_HEADER_BYTES 24u
 /* No frame is ever larger than this, whatever is negotiated. */
 #define QMC_PROTO_MAX_PAYLOAD (16u << 20)
@@ -94,7 +100,10 @@ extern "C" {
     X(SHM_ATTACH, 18, 'C')         \
     X(SHM_OK, 19, 'S')             \
     X(POINTS_SHM_CHUNK, 20, 'S')   \
-    X(SHM_RELEASE, 21, 'C')
+    X(SHM_RELEASE, 21, 'C')        \
+    X(AUTH_CHALLENGE, 22, 'S')     \
+    X(AUTH_RESPONSE, 23, 'C')      \
+    X(AUTH_OK, 24, 'S')
 
 typedef enum qmc_msg_type {
 #define QMC__MSG_ENUM(name, code, dir) QMC_MSG_##name = (code),
@@ -177,6 +186,24 @@ typedef struct qmc_msg_shm_chunk {
 typedef struct qmc_msg_shm_release {
     uint32_t slots;           /* 1 .. QMC_PROTO_SHM_MAX_SLOTS */
 } qmc_msg_shm_release;
+
+/* Protocol version 3, the authenticated handshake (PROTOCOL.md section
+ * 4.1): HELLO, AUTH_CHALLENGE (the server's nonce), AUTH_RESPONSE (the
+ * client's nonce and its proof), AUTH_OK (the server's proof), HELLO_OK.
+ * All carry the HELLO's request id. */
+typedef struct qmc_msg_auth_challenge {
+    uint16_t version;         /* the version HELLO_OK will choose, >= 3 */
+    uint8_t nonce[QMC_PROTO_AUTH_NONCE_BYTES];   /* the server's */
+} qmc_msg_auth_challenge;
+
+typedef struct qmc_msg_auth_response {
+    uint8_t nonce[QMC_PROTO_AUTH_NONCE_BYTES];   /* the client's */
+    uint8_t mac[QMC_PROTO_AUTH_MAC_BYTES];       /* the client's proof */
+} qmc_msg_auth_response;
+
+typedef struct qmc_msg_auth_ok {
+    uint8_t mac[QMC_PROTO_AUTH_MAC_BYTES];       /* the server's proof */
+} qmc_msg_auth_ok;
 
 typedef struct qmc_msg_end {
     uint64_t points;          /* points sent for the request */
@@ -275,6 +302,9 @@ typedef struct qmc_msg {
         qmc_msg_shm shm;              /* SHM_ATTACH and SHM_OK */
         qmc_msg_shm_chunk shm_chunk;
         qmc_msg_shm_release release;
+        qmc_msg_auth_challenge challenge;
+        qmc_msg_auth_response response;
+        qmc_msg_auth_ok auth_ok;
     } u;
 } qmc_msg;
 

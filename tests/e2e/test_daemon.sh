@@ -86,6 +86,8 @@ cat > "$tmp/qmcd.conf" <<EOF
 threads = 2
 log-level = info
 max-inflight = 16
+# 200 concurrent clients below are one peer (this uid): let them all in.
+max-connections-per-peer = 1024
 handshake-timeout-ms = 1000
 frame-timeout-ms = 1000
 job-time-limit-ms = 2500

@@ -77,6 +77,8 @@ job-time-limit-ms = 60000
 shutdown-timeout-ms = 3000
 max-jobs = 1024
 max-jobs-per-conn = 16
+# The load test's 200 clients are one peer (this uid): let them all in.
+max-connections-per-peer = 1024
 CONF
 SOCK="$tmp/qmcd.sock"
 "$QMC" points --seq sobol --dims 4 --count 4096 --scramble owen --seed 9 --format f64 \

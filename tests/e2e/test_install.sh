@@ -107,11 +107,12 @@ check "pkg-config --cflags qmcclient | grep -q -- '-I$R/include'" \
 if make -s -C "$tmp/ex" -f "$TOP/client/examples/Makefile" CC="$EXCC" CFLAGS="$EXFLAGS" \
     > "$tmp/ex.out" 2>&1; then ok
 else bad "client example does not build against the installed qmcclient.pc: $(tail -n 5 "$tmp/ex.out")"; fi
-# and statically, from the installed archives and Libs.private
+# and statically, from the installed archives and Libs.private (libsodium,
+# the handshake's HMAC, is Requires.private: linked as the system has it)
 # shellcheck disable=SC2086
 if $EXCC $EXFLAGS $(pkg-config --cflags qmcclient) -o "$tmp/ex/static_example" \
     "$tmp/ex/points_example.c" -L"$R/lib" -Wl,-Bstatic -lqmcclient -lqmcproto -lqmc \
-    -Wl,-Bdynamic -lm -pthread > "$tmp/ex-static.out" 2>&1; then ok
+    -Wl,-Bdynamic -lm -pthread $(pkg-config --libs libsodium) > "$tmp/ex-static.out" 2>&1; then ok
 else bad "static link against the installed archives: $(tail -n 3 "$tmp/ex-static.out")"; fi
 unset PKG_CONFIG_PATH PKG_CONFIG_SYSROOT_DIR
 ldd "$tmp/ex/static_example" | grep -q libqmcclient && bad "the static example loads libqmcclient.so"

@@ -10,9 +10,9 @@
  * messages keep the bounds a receiver relies on.  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
- * The Makefile's fuzz rule links build/fuzz/libqmc.a only, so the codec
- * sources are compiled in here (with the fuzzer's coverage flags) rather
- * than taken from libqmcproto.a; they have no dependency on libqmc.
+ * The codec sources are compiled in here (with the fuzzer's coverage
+ * flags), so nothing is taken from build/fuzz/libqmcproto.a, which the
+ * fuzz rule links for targets such as fuzz_auth.
  */
 #include <stddef.h>
 #include <stdint.h>

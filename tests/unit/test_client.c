@@ -807,9 +807,11 @@ static uint8_t *srv_attach(fake *f, int fd, uint32_t slots, uint32_t slot_bytes,
     const size_t bytes = (size_t)slots * slot_bytes;
     int seals = fcntl(pfd, F_GET_SEALS);
     struct stat st;
+    /* Sealed against shrinking and growing, and not F_SEAL_SEAL: the server
+     * adds F_SEAL_FUTURE_WRITE after mapping it (PROTOCOL.md section 10). */
     if (seals < 0 || (seals & (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL)) !=
-                         (F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL))
-        fake_bad(f, "the memfd is not sealed");
+                         (F_SEAL_SHRINK | F_SEAL_GROW))
+        fake_bad(f, "the memfd is not sealed as the protocol asks");
     if (fstat(pfd, &st) != 0 || (size_t)st.st_size < bytes)
         fake_bad(f, "the memfd is too small");
     void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, pfd, 0);
@@ -1039,6 +1041,129 @@ static void test_shm_v1(void **state)
     fake_stop(f);
 }
 
+/* ---- authentication (protocol version 3) ---------------------------------------- */
+
+static const uint8_t fake_key[32] = {'q', 'm', 'c', 'd', ' ', 'e', 'x', 'a', 'm', 'p', 'l',
+                                     'e', ' ', 'k', 'e', 'y', ',', ' ', '3', '2', ' ', 'b',
+                                     'y', 't', 'e', 's', ' ', 'l', 'o', 'n', 'g', '!'};
+
+/* A server holding fake_key, through the same state machine as qmcd.
+ * arg 0: honest; 1: a wrong proof in AUTH_OK; 2: challenges, and the
+ * client (without a key) must hang up. */
+static void script_auth(fake *f, int fd)
+{
+    qmc_msg m;
+    if (srv_expect(f, fd, &m, QMC_MSG_HELLO))
+        return;
+    const uint64_t id = m.request_id;
+    qmc_auth_server st;
+    memset(&st, 0, sizeof st);
+    uint8_t nonce[QMC_PROTO_AUTH_NONCE_BYTES];
+    memset(nonce, 0x5c, sizeof nonce);
+    qmc_msg ch;
+    memset(&ch, 0, sizeof ch);
+    ch.type = QMC_MSG_AUTH_CHALLENGE;
+    ch.request_id = id;
+    if (qmc_auth_server_challenge(&st, &m.u.hello, QMC_PROTO_VERSION_MAX, nonce,
+                                  &ch.u.challenge) != 0) {
+        fake_bad(f, "the client's HELLO cannot be challenged");
+        return;
+    }
+    srv_send(f, fd, &ch);
+    if (f->arg == 2) {
+        if (srv_read(f, fd, &m) == 0)
+            fake_bad(f, "a client without a key answered the challenge");
+        return;
+    }
+    if (srv_expect(f, fd, &m, QMC_MSG_AUTH_RESPONSE))
+        return;
+    qmc_msg ok;
+    memset(&ok, 0, sizeof ok);
+    ok.type = QMC_MSG_AUTH_OK;
+    ok.request_id = id;
+    if (qmc_auth_server_verify(&st, fake_key, sizeof fake_key, &m.u.response,
+                               &ok.u.auth_ok) != 0) {
+        fake_bad(f, "the client's proof is wrong");
+        return;
+    }
+    if (f->arg == 1)
+        ok.u.auth_ok.mac[7] ^= 0x10;
+    srv_send(f, fd, &ok);
+    if (f->arg == 0) {
+        memset(&m, 0, sizeof m);
+        m.type = QMC_MSG_HELLO_OK;
+        m.request_id = id;
+        m.u.hello_ok.version = st.version;
+        m.u.hello_ok.max_frame = 1u << 20;
+        m.u.hello_ok.max_inflight = 4;
+        m.u.hello_ok.max_points = 1000;
+        m.u.hello_ok.server = (qmc_str){"fake-qmcd", 9};
+        m.u.hello_ok.engine = (qmc_str){"test 1.0", 8};
+        srv_send(f, fd, &m);
+    }
+    (void)srv_read(f, fd, &m); /* until the client hangs up */
+}
+
+static void test_auth(void **state)
+{
+    (void)state;
+    char key_path[] = "/tmp/qmc-test-key-XXXXXX";
+    int kfd = mkstemp(key_path);
+    assert_true(kfd >= 0);
+    assert_int_equal(write(kfd, fake_key, sizeof fake_key), (ssize_t)sizeof fake_key);
+    assert_int_equal(fchmod(kfd, 0600), 0);
+    close(kfd);
+    unsetenv("QMC_AUTH_KEY_FILE");
+
+    fake *f = fake_start(script_auth, 0);
+    qmc_client *c = NULL;
+    assert_int_equal(qmc_client_connect_auth(f->endpoint, TIMEOUT_MS, key_path, &c), 0);
+    assert_int_equal(qmc_client_authenticated(c), 1);
+    assert_string_equal(qmc_client_server_name(c), "fake-qmcd");
+    qmc_client_close(c);
+    fake_stop(f);
+
+    /* The environment is what qmc_client_connect reads. */
+    assert_int_equal(setenv("QMC_AUTH_KEY_FILE", key_path, 1), 0);
+    f = fake_start(script_auth, 0);
+    assert_int_equal(qmc_client_connect(f->endpoint, TIMEOUT_MS, &c), 0);
+    assert_int_equal(qmc_client_authenticated(c), 1);
+    qmc_client_close(c);
+    fake_stop(f);
+    unsetenv("QMC_AUTH_KEY_FILE");
+
+    /* A server whose proof is wrong does not hold our key. */
+    f = fake_start(script_auth, 1);
+    assert_int_equal(qmc_client_connect_auth(f->endpoint, TIMEOUT_MS, key_path, &c), QMC_EAUTH);
+    assert_non_null(strstr(qmc_client_last_error(c), "could not prove it holds our key"));
+    assert_int_equal(qmc_client_authenticated(c), 0);
+    assert_int_equal(qmc_client_max_frame(c), 0); /* closed */
+    qmc_client_close(c);
+    fake_stop(f);
+
+    /* No key ("" overrides the environment) where one is required. */
+    assert_int_equal(setenv("QMC_AUTH_KEY_FILE", key_path, 1), 0);
+    f = fake_start(script_auth, 2);
+    assert_int_equal(qmc_client_connect_auth(f->endpoint, TIMEOUT_MS, "", &c), QMC_EAUTH);
+    assert_non_null(strstr(qmc_client_last_error(c), "requires authentication"));
+    qmc_client_close(c);
+    fake_stop(f);
+    unsetenv("QMC_AUTH_KEY_FILE");
+
+    /* A key file others can read is refused before any connection. */
+    assert_int_equal(chmod(key_path, 0640), 0);
+    assert_int_equal(qmc_client_connect_auth("unix:/nonexistent/qmcd.sock", TIMEOUT_MS,
+                                             key_path, &c),
+                     QMC_EAUTH);
+    assert_non_null(strstr(qmc_client_last_error(c), "chmod 600"));
+    qmc_client_close(c);
+    assert_int_equal(qmc_client_connect_auth("unix:/nonexistent/qmcd.sock", TIMEOUT_MS,
+                                             "/nonexistent/key", &c),
+                     -ENOENT);
+    qmc_client_close(c);
+    unlink(key_path);
+}
+
 /* ---- allocation failure --------------------------------------------------------------- */
 
 typedef struct alloc_ctl {
@@ -1118,6 +1243,7 @@ int main(void)
         cmocka_unit_test(test_shm),
         cmocka_unit_test(test_shm_refused),
         cmocka_unit_test(test_shm_v1),
+        cmocka_unit_test(test_auth),
         cmocka_unit_test(test_alloc_failures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -24,6 +24,8 @@
 
 #include "codec.h"
 #include "qmc/proto.h"
+/* The handshake's worked example (vector 0): real nonces and MACs. */
+#include "../vectors/auth_vectors.h"
 
 #define VECTOR_DIR "tests/vectors/proto"
 
@@ -336,6 +338,24 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         m->request_id = ex ? 0 : m->request_id;
         m->u.release.slots = mx ? QMC_PROTO_SHM_MAX_SLOTS : ex ? 2 : 1;
         break;
+    case QMC_MSG_AUTH_CHALLENGE:
+        m->request_id = ex ? 1 : m->request_id;
+        m->u.challenge.version = mx ? UINT16_MAX : QMC_PROTO_VERSION_AUTH;
+        for (unsigned i = 0; i < QMC_PROTO_AUTH_NONCE_BYTES; i++)
+            m->u.challenge.nonce[i] = mx ? 0xff : ex ? auth_vectors[0].server_nonce[i] : 0;
+        break;
+    case QMC_MSG_AUTH_RESPONSE:
+        m->request_id = ex ? 1 : m->request_id;
+        for (unsigned i = 0; i < QMC_PROTO_AUTH_NONCE_BYTES; i++)
+            m->u.response.nonce[i] = mx ? 0xff : ex ? auth_vectors[0].client_nonce[i] : 0;
+        for (unsigned i = 0; i < QMC_PROTO_AUTH_MAC_BYTES; i++)
+            m->u.response.mac[i] = mx ? 0xff : ex ? auth_vectors[0].client_mac[i] : 0;
+        break;
+    case QMC_MSG_AUTH_OK:
+        m->request_id = ex ? 1 : m->request_id;
+        for (unsigned i = 0; i < QMC_PROTO_AUTH_MAC_BYTES; i++)
+            m->u.auth_ok.mac[i] = mx ? 0xff : ex ? auth_vectors[0].server_mac[i] : 0;
+        break;
     }
 }
 
@@ -527,6 +547,19 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_SHM_RELEASE:
         assert_int_equal(a->u.release.slots, b->u.release.slots);
         break;
+    case QMC_MSG_AUTH_CHALLENGE:
+        assert_int_equal(a->u.challenge.version, b->u.challenge.version);
+        assert_memory_equal(a->u.challenge.nonce, b->u.challenge.nonce,
+                            QMC_PROTO_AUTH_NONCE_BYTES);
+        break;
+    case QMC_MSG_AUTH_RESPONSE:
+        assert_memory_equal(a->u.response.nonce, b->u.response.nonce,
+                            QMC_PROTO_AUTH_NONCE_BYTES);
+        assert_memory_equal(a->u.response.mac, b->u.response.mac, QMC_PROTO_AUTH_MAC_BYTES);
+        break;
+    case QMC_MSG_AUTH_OK:
+        assert_memory_equal(a->u.auth_ok.mac, b->u.auth_ok.mac, QMC_PROTO_AUTH_MAC_BYTES);
+        break;
     }
 }
 
@@ -633,7 +666,7 @@ static void test_bad_header(void **state)
     static const struct {
         size_t off;
         uint8_t value;
-    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 22}, {5, 255},
+    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 25}, {5, 255},
                {6, 1}, {7, 0x80}, {20, 1}, {23, 0x80}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         memcpy(frame2, frame, n);
@@ -829,6 +862,9 @@ static const mutation mutations[] = {
     {QMC_MSG_POINTS_SHM_CHUNK, 20, 4, 1, "reserved"},
     {QMC_MSG_SHM_RELEASE, 0, 4, 0, "no slots"},
     {QMC_MSG_SHM_RELEASE, 0, 4, QMC_PROTO_SHM_MAX_SLOTS + 1, "more slots than a ring has"},
+    {QMC_MSG_AUTH_CHALLENGE, 0, 2, 2, "a version without the handshake"},
+    {QMC_MSG_AUTH_CHALLENGE, 0, 2, 0, "version 0"},
+    {QMC_MSG_AUTH_CHALLENGE, 2, 2, 1, "reserved"},
 };
 
 static void test_mutations(void **state)
@@ -989,8 +1025,11 @@ static void test_encoder_refuses(void **state)
     build(QMC_MSG_PING, EXAMPLE, &m);
     m.type = (qmc_msg_type)0;
     refuse(&m, "type 0");
-    m.type = (qmc_msg_type)22;
-    refuse(&m, "type 22");
+    m.type = (qmc_msg_type)25;
+    refuse(&m, "type 25");
+    build(QMC_MSG_AUTH_CHALLENGE, EXAMPLE, &m);
+    m.u.challenge.version = QMC_PROTO_VERSION_AUTH - 1;
+    refuse(&m, "a challenge for a version without the handshake");
     assert_int_equal(qmc_proto_encode(NULL, frame, sizeof frame), QMC_EINVAL);
     assert_int_equal(qmc_proto_encoded_size(NULL), 0);
 

@@ -1,0 +1,61 @@
+/*
+ * auth.h - the daemon's side of key authentication (PROTOCOL.md section
+ * 4.1, docs/SECURITY.md): the key file, which connections must prove they
+ * hold it, the HELLO / AUTH_RESPONSE hooks, and the per-address lockout
+ * after repeated failures.
+ */
+#ifndef QMCD_AUTH_H
+#define QMCD_AUTH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/socket.h>
+
+#include "qmc/proto.h"
+#include "server.h"
+
+typedef struct qmcd_auth qmcd_auth;
+/* One connection's handshake in progress (auth.c). */
+typedef struct qmcd_auth_conn qmcd_auth_conn;
+
+/* Creates the server's authentication state (no key yet).  Returns 0 or
+ * -ENOMEM / the libsodium initialisation failure as -EIO. */
+int qmcd_auth_new(qmcd_auth **out);
+/* Wipes the key and frees; NULL is a no-op. */
+void qmcd_auth_free(qmcd_auth *a);
+
+/*
+ * Reads cfg's auth-key file (none configured: no key) and checks it: a
+ * regular file, mode 0600 or stricter, 16 to 1024 bytes.  On success the
+ * key replaces the one a holds (a SIGHUP rotates keys this way) and 0 is
+ * returned; on error a keeps its key and one line goes into why (-1).
+ */
+int qmcd_auth_load_key(qmcd_auth *a, const qmcd_config *cfg, char *why, size_t why_bytes);
+
+/* 1 when a key is loaded. */
+int qmcd_auth_has_key(const qmcd_auth *a);
+
+/* 1 for an address only this host can reach: 127.0.0.0/8, ::1, or an
+ * IPv4-mapped 127.x.  0.0.0.0 and :: (every interface) are not. */
+int qmcd_auth_is_loopback(const struct sockaddr *sa);
+
+/*
+ * The HELLO hook (dispatch.c), after the version and max_frame checks.
+ * Returns 0 when this connection needs no authentication (the caller
+ * answers HELLO_OK), 1 when auth.c has taken the handshake over: it sent
+ * AUTH_CHALLENGE, or failed the connection (locked-out address, a client
+ * that cannot speak version 3).
+ */
+int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
+
+/* The AUTH_RESPONSE handler: on a good proof sends AUTH_OK and HELLO_OK;
+ * otherwise fails the connection (QMC_EAUTH or QMC_EPROTO). */
+void qmcd_auth_on_response(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
+
+/* 1 while c has been challenged and owes its AUTH_RESPONSE. */
+int qmcd_auth_pending(const qmcd_conn *c);
+
+/* Frees c's handshake state (the connection is going away). */
+void qmcd_auth_conn_free(qmcd_conn *c);
+
+#endif

@@ -1,0 +1,27 @@
+/*
+ * ring.h - a client's shared-memory ring (SHM_ATTACH, PROTOCOL.md section
+ * 10): attached and released in ring.c, filled by points.c.
+ */
+#ifndef QMCD_RING_H
+#define QMCD_RING_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* A client's ring: its memfd mapped shared, cut into equal slots that are
+ * filled in order 0, 1, ... slots - 1, 0, ... and handed back oldest first,
+ * so the free slots are always the `slots - held` after the held ones. */
+struct qmcd_ring {
+    uint8_t *base;
+    size_t bytes;                /* slots * slot_bytes */
+    uint32_t slots, slot_bytes;
+    uint32_t next;               /* the slot the next chunk goes to */
+    uint32_t held;               /* given to the client, not yet released */
+    uint32_t unsent;             /* chunks queued since the last flush hint */
+    int64_t full_ms;             /* when the last free slot was taken, or 0 */
+};
+
+/* Unmaps and frees the ring; NULL is a no-op. */
+void qmcd_ring_free(struct qmcd_ring *r);
+
+#endif

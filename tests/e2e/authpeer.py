@@ -1,0 +1,261 @@
+#!/usr/bin/python3
+"""authpeer.py - e2e scenarios for the authenticated handshake (protocol
+version 3, PROTOCOL.md section 4.1) and the request-id edges of section 3,
+spoken through qmcpeer.py (the independent peer).  The proofs are computed
+here with Python's hmac and hashlib from the spec's definition - an oracle
+apart from the C code - and the server's proof is checked the same way.
+
+    authpeer.py auth TCP_ADDR KEYFILE MAX_FAILURES
+    authpeer.py edges ADDR
+
+Prints "ok NAME" / "FAIL NAME: why" lines like qmcpeer.py.  State, never
+time, decides every check: the address locked out is refused the right
+key after MAX_FAILURES wrong ones, while another loopback address is not.
+"""
+import hashlib
+import hmac
+import os
+import socket
+import struct
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from qmcpeer import (MSG, QMC_EINVAL, QMC_EPROTO, Peer, check,  # noqa: E402
+                     expect_closed, frame, job_frame, long_job, str16)
+
+QMC_EAUTH = -1016
+LABEL_C = b"qmcd-auth-v1 C>S"
+LABEL_S = b"qmcd-auth-v1 S>C"
+
+
+def transcript(label, vmin, vmax, version, ns, nc):
+    return label + struct.pack("<HHHH", vmin, vmax, version, 0) + ns + nc
+
+
+def mac(key, label, vmin, vmax, version, ns, nc):
+    return hmac.new(key, transcript(label, vmin, vmax, version, ns, nc),
+                    hashlib.sha256).digest()
+
+
+def tcp_peer(addr, src="127.0.0.1"):
+    """A Peer whose socket is bound to source address src first, so each
+    scenario can fail from an address of its own (127.0.0.0/8 is all
+    loopback)."""
+    host, port = addr[4:].rsplit(":", 1)
+    p = Peer.__new__(Peer)
+    p.s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    p.s.settimeout(15.0)
+    p.s.bind((src, 0))
+    p.s.connect((host, int(port)))
+    p.buf, p.next_id, p.info, p.ring = bytearray(), 100, None, None
+    return p
+
+
+def hello_frame(rid, vmin, vmax, name="authpeer"):
+    return frame(MSG["HELLO"], rid, struct.pack("<HHI", vmin, vmax, 1 << 20) + str16(name))
+
+
+def handshake(p, key, vmin=1, vmax=3, tamper=None):
+    """HELLO, AUTH_CHALLENGE, AUTH_RESPONSE; returns what came after the
+    response: ("ok", hello_ok dict, server proof good?) or ("error", d)."""
+    t, rid, d = p.call(hello_frame(7, vmin, vmax))
+    if t == "ERROR":
+        return ("error", d)
+    if t != "AUTH_CHALLENGE" or rid != 7:
+        raise ValueError("HELLO answered %s" % t)
+    version, ns = d["version"], d["nonce"]
+    nc = os.urandom(32)
+    mc = mac(key, LABEL_C, vmin, vmax, version, ns, nc)
+    if tamper:
+        mc = tamper(mc, ns, nc, version)
+    t, rid, d = p.call(frame(MSG["AUTH_RESPONSE"], 7, nc + mc))
+    if t == "ERROR":
+        return ("error", d)
+    if t != "AUTH_OK" or rid != 7:
+        raise ValueError("AUTH_RESPONSE answered %s" % t)
+    proof_ok = hmac.compare_digest(d["mac"], mac(key, LABEL_S, vmin, vmax, version, ns, nc))
+    t, rid, d = p.recv()
+    if t != "HELLO_OK" or rid != 7:
+        raise ValueError("AUTH_OK followed by %s" % t)
+    return ("ok", d, proof_ok, version)
+
+
+def closed_after(p):
+    """True when the server closed the connection (EOF, bounded wait)."""
+    errs = expect_closed(p, "closed")
+    return not any(e.get("message") == "timeout: not closed" for e in errs)
+
+
+def stats(addr, key):
+    p = tcp_peer(addr)
+    r = handshake(p, key)
+    t, rid, d = p.call(frame(MSG["STATS"], 9))
+    p.close()
+    return d["stats"]
+
+
+def stat_reply(addr):
+    q = Peer(addr)
+    t, rid, d = q.call(frame(MSG["STATS"], 3))
+    q.close()
+    return d["stats"]
+
+
+def sc_auth(addr, keyfile, max_failures):
+    key = open(keyfile, "rb").read()
+    wrong = bytes(b ^ 0x5a for b in key)
+    n = int(max_failures)
+    before = stats(addr, key)
+
+    p = tcp_peer(addr)
+    r = handshake(p, key)
+    check("right key: AUTH_OK then HELLO_OK, version 3", r[0] == "ok" and r[3] == 3, repr(r))
+    check("the server's proof matches Python's HMAC (S>C label)", r[0] == "ok" and r[2])
+    check("authenticated connection is served", p.ping())
+    p.close()
+
+    p = tcp_peer(addr, "127.0.0.2")
+    r = handshake(p, wrong)
+    check("wrong key: ERROR EAUTH", r[0] == "error" and r[1]["code"] == QMC_EAUTH, repr(r))
+    check("wrong key: connection closed", closed_after(p))
+
+    # A reflected proof: the server-direction MAC sent as the client's.
+    p = tcp_peer(addr, "127.0.0.5")
+    r = handshake(p, key, tamper=lambda m, ns, nc, v: mac(key, LABEL_S, 1, 3, v, ns, nc))
+    check("reflected proof: ERROR EAUTH", r[0] == "error" and r[1]["code"] == QMC_EAUTH,
+          repr(r))
+    # A proof over another version range than the HELLO's (downgrade).
+    p = tcp_peer(addr, "127.0.0.6")
+    r = handshake(p, key, tamper=lambda m, ns, nc, v: mac(key, LABEL_C, 2, 3, v, ns, nc))
+    check("proof over altered versions: ERROR EAUTH",
+          r[0] == "error" and r[1]["code"] == QMC_EAUTH, repr(r))
+
+    p = tcp_peer(addr, "127.0.0.7")
+    r = handshake(p, key, vmin=1, vmax=2)
+    check("old client (1..2) where a key is required: ERROR EAUTH",
+          r[0] == "error" and r[1]["code"] == QMC_EAUTH and "version 3" in r[1]["message"],
+          repr(r))
+    check("old client: connection closed", closed_after(p))
+
+    p = tcp_peer(addr, "127.0.0.7")
+    p.send(frame(MSG["AUTH_RESPONSE"], 7, bytes(64)))
+    errs = expect_closed(p, "early response")
+    check("AUTH_RESPONSE before HELLO: ERROR EPROTO, closed",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+
+    # Rate limit, by state: from 127.0.0.3, n wrong keys; the next attempt,
+    # with the right key, is refused; 127.0.0.4 is not affected.
+    results = []
+    for i in range(n):
+        p = tcp_peer(addr, "127.0.0.3")
+        results.append(handshake(p, wrong))
+        p.close()
+    check("%d wrong keys from 127.0.0.3: each ERROR EAUTH 'not the server's'" % n,
+          all(r[0] == "error" and r[1]["code"] == QMC_EAUTH and
+              "not the server" in r[1]["message"] for r in results), repr(results))
+    p = tcp_peer(addr, "127.0.0.3")
+    r = handshake(p, key)
+    check("attempt %d from 127.0.0.3, right key: refused (locked out)" % (n + 1),
+          r[0] == "error" and r[1]["code"] == QMC_EAUTH and
+          "too many failed" in r[1]["message"], repr(r))
+    check("locked-out attempt: connection closed", closed_after(p))
+    p = tcp_peer(addr, "127.0.0.4")
+    r = handshake(p, key)
+    check("another address with the right key: served", r[0] == "ok" and p.ping(), repr(r))
+    p.close()
+
+    after = stats(addr, key)
+    # wrong key, reflected, altered (one each from .2, .5, .6); n from .3.
+    check("STATS auth_failures counts every wrong proof",
+          after["auth_failures"] - before["auth_failures"] == 3 + n, repr(after))
+    check("STATS auth_lockouts counts the refused attempt",
+          after["auth_lockouts"] - before["auth_lockouts"] == 1, repr(after))
+
+
+def sc_edges(addr):
+    p = Peer(addr, version=2)
+    # A PING that reuses the id of a live POINTS (sent together, so the
+    # stream is certainly in flight when the PING is read).
+    big = p.points_frame(5, dims=64, count=1 << 22)
+    p.send(big + p.ping_frame(5))
+    seen = []
+    for _ in range(100000):
+        t, rid, d = p.recv()
+        seen.append((t, rid))
+        if t == "ERROR" and rid == 5:
+            break
+    err = d
+    check("PING reusing a live POINTS id: ERROR EINVAL", err.get("code") == QMC_EINVAL,
+          repr(err))
+    p.send(p.ping_frame(6))
+    after = []
+    for _ in range(100000):
+        t, rid, d = p.recv()
+        after.append((t, rid))
+        if rid == 6:
+            break
+    check("that ERROR ended the stream: nothing more for id 5",
+          all(r != 5 for _, r in after) and after[-1] == ("PONG", 6), repr(after[:5]))
+    check("no END for id 5 at all", ("END", 5) not in seen)
+
+    # A duplicate POINTS id: one ERROR, which ends both.
+    p.send(p.points_frame(8, dims=64, count=1 << 22) + p.points_frame(8, dims=2, count=4))
+    errors = 0
+    for _ in range(100000):
+        t, rid, d = p.recv()
+        if t == "ERROR" and rid == 8:
+            errors += 1
+            break
+    p.send(p.ping_frame(9))
+    after = []
+    for _ in range(100000):
+        t, rid, d = p.recv()
+        after.append((t, rid))
+        if rid == 9:
+            break
+    check("duplicate POINTS id: one ERROR, then nothing more for it",
+          errors == 1 and all(r != 8 for _, r in after), repr(after[:5]))
+    check("connection still usable after the duplicate", p.ping())
+    # The id is free again after its ERROR.
+    p.send(p.points_frame(8, dims=2, count=4))
+    t, rid, d = p.recv()
+    t2, rid2, d2 = p.recv()
+    check("the ended id may be used again", t == "POINTS_CHUNK" and t2 == "END" and
+          rid == rid2 == 8 and d2["points"] == 4, repr((t, rid, t2, rid2)))
+
+    # A job whose connection closes before its answer is counted as
+    # dropped, and the job counters add up.
+    s0 = stat_reply(addr)
+    j = Peer(addr)
+    j.send(job_frame(j, 11, long_job(3)))
+    t, rid, d = j.recv()
+    check("long job accepted", t == "JOB_ACCEPTED", repr((t, d)))
+    j.close()
+    s1 = s0
+    for _ in range(2000):  # bounded: until the daemon has seen the close
+        s1 = stat_reply(addr)
+        if s1["jobs_open"] == 0 and s1["jobs_dropped"] > s0["jobs_dropped"]:
+            break
+    check("a job of a closed connection counts in STATS jobs_dropped",
+          s1["jobs_dropped"] - s0["jobs_dropped"] == 1, repr(s1))
+    check("jobs_accepted = done + failed + cancelled + dropped",
+          s1["jobs_accepted"] == s1["jobs_done"] + s1["jobs_failed"] +
+          s1["jobs_cancelled"] + s1["jobs_dropped"], repr(s1))
+
+    # Id 0 is the connection's.
+    p.send(p.ping_frame(0))
+    errs = expect_closed(p, "id 0")
+    check("PING with id 0: ERROR EPROTO (id 0), closed",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+    q = Peer(addr, hello=False)
+    q.send(frame(MSG["HELLO"], 0, struct.pack("<HHI", 1, 1, 1 << 20) + str16("zero")))
+    errs = expect_closed(q, "hello id 0")
+    check("HELLO with id 0: ERROR EPROTO, closed",
+          len(errs) == 1 and errs[0]["code"] == QMC_EPROTO, repr(errs))
+
+
+SCENARIOS = {"auth": sc_auth, "edges": sc_edges}
+
+if __name__ == "__main__":
+    import qmcpeer
+    sys.exit(qmcpeer.main(sys.argv, SCENARIOS, "authpeer.py"))

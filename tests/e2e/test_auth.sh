@@ -1,0 +1,197 @@
+#!/bin/sh
+# End-to-end checks of authentication (PROTOCOL.md section 4.1,
+# docs/SECURITY.md) and of the request-id edges of section 3, against the
+# real daemon on a temporary Unix socket and an ephemeral loopback port,
+# waited for through --ready-file and stopped by PID:
+#
+#   - a TCP listener off loopback (0.0.0.0, [::]) without --auth-key is
+#     refused before anything is bound; a key file open to others (0644), or
+#     too short, is refused at start, and on SIGHUP (the old key stays);
+#   - with a key: qmc without one is refused, with --auth-key or
+#     QMC_AUTH_KEY_FILE it is served, remote points byte-identical to local;
+#     a wrong key gets ERROR and a closed connection; the Unix socket keeps
+#     its permissions as access control (no key needed), or with auth-unix 1
+#     asks for the key too; a key rotated by SIGHUP takes effect;
+#   - tests/e2e/authpeer.py: the handshake against Python's HMAC, the
+#     server's proof, reflection and downgrade refused, and the lockout by
+#     state (the right key refused after N failures from one address, while
+#     another address is served), the log saying so; PING on a live POINTS
+#     id, a duplicate POINTS id, id 0; STATS jobs_dropped.
+# Env: QMC, QMCD (binaries).  Prints "N passed, M failed".
+set -u
+: "${QMC:?QMC must name the qmc binary}"
+: "${QMCD:?QMCD must name the qmcd binary}"
+tmp=$(mktemp -d)
+pid=
+cleanup() {
+    if [ -n "$pid" ]; then kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
+    rm -rf "$tmp"
+}
+trap cleanup EXIT
+trap 'exit 1' INT TERM
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+unset QMC_ENDPOINT QMC_AUTH_KEY_FILE
+PEER="$(cd "$(dirname "$0")" && pwd)/authpeer.py"
+
+# peer SCENARIO ARGS...: runs an authpeer scenario and counts its lines.
+peer() {
+    /usr/bin/python3 "$PEER" "$@" > "$tmp/peer.out" 2>&1
+    while IFS= read -r line; do
+        case "$line" in
+            "ok "*) ok ;;
+            "FAIL "*) bad "authpeer: ${line#FAIL }" ;;
+            *) echo "authpeer: $line" ;;
+        esac
+    done < "$tmp/peer.out"
+    grep -q '^ok ' "$tmp/peer.out" || bad "authpeer $1 printed no checks"
+}
+
+umask 077
+head -c 32 /dev/urandom > "$tmp/key"
+head -c 32 /dev/urandom > "$tmp/key2"
+head -c 32 /dev/urandom > "$tmp/wrong"
+head -c 8 /dev/urandom > "$tmp/short"
+cp "$tmp/key" "$tmp/open"
+chmod 600 "$tmp/key" "$tmp/key2" "$tmp/wrong" "$tmp/short"
+chmod 644 "$tmp/open"
+
+# ---- refusals at start (nothing is bound: the address is never used) ----
+for addr in tcp:0.0.0.0:0 'tcp:[::]:0'; do
+    "$QMCD" --foreground --listen "$addr" --ready-file "$tmp/r0" 2> "$tmp/err" > /dev/null
+    rc=$?
+    if [ $rc -ne 0 ] && [ ! -e "$tmp/r0" ] && grep -q -- '--auth-key' "$tmp/err" &&
+        [ "$(wc -l < "$tmp/err")" -eq 1 ]; then ok; else
+        bad "$addr without a key: rc $rc, $(cat "$tmp/err")"; fi
+done
+"$QMCD" --foreground --listen tcp::0 --listen tcp:127.0.0.9:0 --ready-file "$tmp/r1" \
+    2> "$tmp/err" & p1=$!
+i=0
+while [ ! -s "$tmp/r1" ] && kill -0 $p1 2>/dev/null && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01; done
+if grep -q '^tcp:127.0.0.1:' "$tmp/r1" 2>/dev/null && grep -q '^tcp:127.0.0.9:' "$tmp/r1"; then
+    ok; else bad "tcp::0 is not loopback or 127.0.0.9 refused: $(cat "$tmp/r1" "$tmp/err")"; fi
+kill $p1 2>/dev/null; wait $p1 2>/dev/null
+for k in open short; do
+    "$QMCD" --foreground --listen "unix:$tmp/x.sock" --auth-key "$tmp/$k" \
+        --ready-file "$tmp/r2" 2> "$tmp/err" > /dev/null
+    rc=$?
+    if [ $rc -eq 2 ] && [ ! -e "$tmp/r2" ] && [ ! -e "$tmp/x.sock" ] &&
+        grep -q "auth-key $tmp/$k" "$tmp/err"; then ok; else
+        bad "key file $k accepted: rc $rc, $(cat "$tmp/err")"; fi
+done
+grep -q 'chmod 600' "$tmp/err" 2>/dev/null || true
+
+# ---- the daemon with a key ----------------------------------------------------
+MAXF=3
+"$QMCD" --foreground --listen "unix:$tmp/qmcd.sock" --listen tcp:127.0.0.1:0 \
+    --auth-key "$tmp/key" --auth-max-failures $MAXF --auth-lockout-ms 3600000 \
+    --ready-file "$tmp/ready" --log-level info 2> "$tmp/qmcd.log" &
+pid=$!
+i=0
+while [ ! -s "$tmp/ready" ]; do
+    if ! kill -0 "$pid" 2>/dev/null; then
+        echo "FAIL: qmcd exited before it was ready:"; cat "$tmp/qmcd.log"
+        pid=; echo "0 passed, 1 failed"; exit 1
+    fi
+    i=$((i + 1))
+    if [ $i -gt 2000 ]; then echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1; fi
+    sleep 0.01
+done
+UNIX="unix:$tmp/qmcd.sock"
+TCP=$(grep '^tcp:' "$tmp/ready")
+
+# expect_fail NAME PATTERN CMD...: exit 2, nothing on stdout, PATTERN on stderr.
+expect_fail() {
+    name=$1 pat=$2; shift 2
+    "$@" > "$tmp/out" 2> "$tmp/err"
+    rc=$?
+    if [ $rc -eq 2 ] && [ ! -s "$tmp/out" ] && grep -q -- "$pat" "$tmp/err" &&
+        [ "$(wc -l < "$tmp/err")" -eq 1 ]; then ok; else
+        bad "$name: rc $rc, stderr: $(cat "$tmp/err")"; fi
+}
+
+expect_fail "no key over TCP" "requires authentication" "$QMC" ping --connect "$TCP" --count 1
+expect_fail "wrong key over TCP" "not the server's" \
+    "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/wrong"
+expect_fail "client key file 0644" "chmod 600" \
+    "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/open"
+if "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key" > /dev/null 2> "$tmp/err"; then
+    ok; else bad "--auth-key: $(cat "$tmp/err")"; fi
+if QMC_AUTH_KEY_FILE="$tmp/key" "$QMC" stats --connect "$TCP" > "$tmp/stats" 2> "$tmp/err" &&
+    grep -q '^jobs_dropped ' "$tmp/stats" && grep -q '^auth_failures  *1$' "$tmp/stats"; then
+    ok; else bad "QMC_AUTH_KEY_FILE / stats: $(cat "$tmp/err" "$tmp/stats")"; fi
+# The Unix socket's permissions are its access control: no key asked.
+if "$QMC" ping --connect "$UNIX" --count 1 > /dev/null 2> "$tmp/err"; then ok; else
+    bad "unix socket without a key: $(cat "$tmp/err")"; fi
+# A key over TCP to a server that asks for none is refused by the client.
+"$QMCD" --foreground --listen tcp:127.0.0.1:0 --ready-file "$tmp/r3" 2> /dev/null & p3=$!
+i=0
+while [ ! -s "$tmp/r3" ] && kill -0 $p3 2>/dev/null && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01; done
+expect_fail "key to a keyless server" "did not ask for authentication" \
+    "$QMC" ping --connect "$(grep '^tcp:' "$tmp/r3")" --count 1 --auth-key "$tmp/key"
+kill $p3 2>/dev/null; wait $p3 2>/dev/null
+
+# auth-unix 1: the Unix socket asks for the key too.
+"$QMCD" --foreground --listen "unix:$tmp/u.sock" --auth-key "$tmp/key" --auth-unix 1 \
+    --ready-file "$tmp/r4" 2> /dev/null & p4=$!
+i=0
+while [ ! -s "$tmp/r4" ] && kill -0 $p4 2>/dev/null && [ $i -lt 2000 ]; do
+    i=$((i + 1)); sleep 0.01; done
+expect_fail "auth-unix 1 without a key" "requires authentication" \
+    "$QMC" ping --connect "unix:$tmp/u.sock" --count 1
+if "$QMC" ping --connect "unix:$tmp/u.sock" --count 1 --auth-key "$tmp/key" > /dev/null \
+    2> "$tmp/err"; then ok; else bad "auth-unix 1 with the key: $(cat "$tmp/err")"; fi
+kill $p4 2>/dev/null; wait $p4 2>/dev/null
+
+# Remote output is still the same bytes as local.
+for spec in "--seq sobol --dims 5 --scramble owen --seed 3 --count 5000" \
+            "--seq halton --dims 3 --count 777 --start 9"; do
+    # shellcheck disable=SC2086
+    "$QMC" points $spec --format f64 > "$tmp/local" &&
+    QMC_AUTH_KEY_FILE="$tmp/key" "$QMC" points $spec --format f64 --connect "$TCP" \
+        > "$tmp/remote" 2> "$tmp/err"
+    if [ -s "$tmp/local" ] && cmp -s "$tmp/local" "$tmp/remote"; then ok; else
+        bad "authenticated remote points differ from local ($spec): $(cat "$tmp/err")"; fi
+done
+
+# ---- the independent peer -----------------------------------------------------
+peer auth "$TCP" "$tmp/key" $MAXF
+if grep -q 'locked out for 3600000 ms after 3 failed attempts' "$tmp/qmcd.log" &&
+    grep -q 'authentication failed: wrong key' "$tmp/qmcd.log" &&
+    grep -q 'refused: 127.0.0.3 is locked out' "$tmp/qmcd.log"; then ok; else
+    bad "the log does not record the failures and the lockout"; fi
+peer edges "$UNIX"
+
+# ---- SIGHUP: the key file is checked again, and keys rotate -------------------
+# wait_log N PATTERN: until the log has N lines matching (bounded).
+wait_log() {
+    i=0
+    while [ "$(grep -c -- "$2" "$tmp/qmcd.log")" -lt "$1" ] && [ $i -lt 2000 ]; do
+        i=$((i + 1)); sleep 0.01; done
+}
+chmod 644 "$tmp/key"
+kill -HUP "$pid"
+wait_log 1 'reload rejected'
+chmod 600 "$tmp/key"
+if grep -q "reload rejected.*auth-key $tmp/key: is readable" "$tmp/qmcd.log" &&
+    "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key" > /dev/null 2>&1; then
+    ok; else bad "SIGHUP with a 0644 key: not refused, or the old key lost"; fi
+cp "$tmp/key2" "$tmp/key"
+kill -HUP "$pid"
+wait_log 1 'configuration reloaded'
+if "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key2" > /dev/null 2>&1; then ok; else
+    bad "the rotated key is not accepted after SIGHUP"; fi
+expect_fail "the old key after rotation" "not the server's" \
+    "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/wrong"
+
+kill "$pid"
+wait "$pid"
+rc=$?
+pid=
+[ $rc -eq 0 ] && ok || bad "qmcd exit status $rc after SIGTERM"
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]
