@@ -4,7 +4,8 @@
 #
 #   make            libraries and the qmc CLI
 #   make check      installs test packages, runs all tests plain and under
-#                   ASan+UBSan
+#                   ASan+UBSan, fuzzes briefly, and fails on any SILENT cell
+#                   of qmc stability --quick
 #   make sanitize   the sanitized build and its tests only
 #   make demo       installs packages, builds, shows the sampling core
 #   make bench      installs peers (GSL, cubature), runs benchmarks
@@ -142,6 +143,16 @@ check: deps-test
 	$(MAKE) test
 	$(MAKE) sanitize
 	$(MAKE) fuzz FUZZ_SECONDS=10
+	$(MAKE) stability-gate
+
+# Issue 13's gate: every method on every known failure case (qmc stability
+# --quick, about a minute on 2 cores); any SILENT cell - a wrong answer with
+# no flag - fails the build.  The report stays in $(BUILD)/stability.
+.PHONY: stability-gate
+stability-gate: all
+	@if ! $(QMC) stability --quick --fail-on-silent --out $(BUILD)/stability; then \
+	  echo "stability-gate: SILENT cells above (details: $(BUILD)/stability/REPORT.md)"; \
+	  exit 1; fi
 
 SAN_FLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
              -fno-sanitize-recover=all
@@ -235,19 +246,31 @@ bench-modbus: all $(MODBUS_LOAD) $(MODBUS_PEER)
 BENCH_INT_DIMS := 2 5 10 20 30
 bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_seq $(BUILD)/bench/seq.csv
-	gnuplot -e "csv='$(BUILD)/bench/seq.csv'; png='$(BUILD)/bench/seq-rates.png'" \
-	  bench/seq_rates.gp
-	@echo "chart: $(BUILD)/bench/seq-rates.png"
+	$(MAKE) --no-print-directory bench-charts-seq
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
-	@for d in 2 4 8; do gnuplot -e "csv='$(BUILD)/bench/integrate-conv.csv'; d=$$d; \
-	  png='$(BUILD)/bench/integrate-conv-d$$d.png'" bench/integrate_conv.gp || exit 1; done
-	gnuplot -e "csv='$(BUILD)/bench/integrate-gl.csv'; png='$(BUILD)/bench/integrate-gl.png'" \
-	  bench/integrate_gl.gp
-	@for d in $(BENCH_INT_DIMS); do gnuplot -e "csv='$(BUILD)/bench/integrate-runs.csv'; \
-	  d=$$d; png='$(BUILD)/bench/integrate-time-d$$d.png'" bench/integrate_time.gp || exit 1; done
-	@echo "charts: $(BUILD)/bench/integrate-{conv-d*,gl,time-d*}.png"
+	$(MAKE) --no-print-directory bench-charts-integrate
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
+
+# Every chart twice, PNG and SVG side by side (each .gp script takes png=
+# or svg=); these only draw, from the CSVs a bench run left in
+# $(BUILD)/bench, so a chart can be redrawn without rerunning the bench.
+.PHONY: bench-charts-seq bench-charts-integrate
+BENCH_OUT := $(BUILD)/bench
+bench-charts-seq:
+	@for k in png svg; do gnuplot -e "csv='$(BENCH_OUT)/seq.csv'; \
+	  $$k='$(BENCH_OUT)/seq-rates.$$k'" bench/seq_rates.gp || exit 1; done
+	@echo "charts: $(BENCH_OUT)/seq-rates.{png,svg}"
+bench-charts-integrate:
+	@for k in png svg; do \
+	  for d in 2 4 8; do gnuplot -e "csv='$(BENCH_OUT)/integrate-conv.csv'; d=$$d; \
+	    $$k='$(BENCH_OUT)/integrate-conv-d$$d.$$k'" bench/integrate_conv.gp || exit 1; done; \
+	  gnuplot -e "csv='$(BENCH_OUT)/integrate-gl.csv'; $$k='$(BENCH_OUT)/integrate-gl.$$k'" \
+	    bench/integrate_gl.gp || exit 1; \
+	  for d in $(BENCH_INT_DIMS); do gnuplot -e "csv='$(BENCH_OUT)/integrate-runs.csv'; \
+	    d=$$d; $$k='$(BENCH_OUT)/integrate-time-d$$d.$$k'" bench/integrate_time.gp || exit 1; \
+	  done; done
+	@echo "charts: $(BENCH_OUT)/integrate-{conv-d*,gl,time-d*}.{png,svg}"
 
 # ---- demo ------------------------------------------------------------------------
 demo: deps-build deps-demo

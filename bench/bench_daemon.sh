@@ -21,7 +21,7 @@
 # (utime + stime from /proc/PID/stat), which does not depend on how fast
 # the load generator is.
 # Prints a table and "met"/"MISSED" verdicts (reported, never asserted),
-# writes BUILD_DIR/bench/daemon.csv, daemon-bulk.csv and daemon-rates.png.
+# writes BUILD_DIR/bench/daemon.csv, daemon-bulk.csv and daemon-rates.png (and .svg).
 # Everything it starts is stopped by PID on exit; nothing listens beyond
 # loopback; each run is capped in requests and seconds (about 90 s total).
 # Env: BENCH_DAEMON_REPS (3), BENCH_DAEMON_N1 (150000 requests at -P 1),
@@ -232,7 +232,8 @@ DAT=$OUT/daemon-rates.dat
 } > "$DAT"
 if command -v gnuplot > /dev/null; then
     gnuplot -e "dat='$DAT'; png='$OUT/daemon-rates.png'" bench/daemon_rates.gp &&
-        echo "chart: $OUT/daemon-rates.png"
+        gnuplot -e "dat='$DAT'; svg='$OUT/daemon-rates.svg'" bench/daemon_rates.gp &&
+        echo "charts: $OUT/daemon-rates.png, $OUT/daemon-rates.svg"
 fi
 
 # ---- (c): bulk ---------------------------------------------------------------------

@@ -2,8 +2,15 @@
 # qmcd 1-point POINTS, 50 connections, by transport and pipelining.
 # Usage: gnuplot -e "dat='build/bench/daemon-rates.dat'; png='build/bench/daemon-rates.png'" \
 #          bench/daemon_rates.gp
-set terminal pngcairo size 900,560 noenhanced
-set output png
+# svg='FILE' (instead of png='FILE') writes the chart as SVG; make bench
+# writes both, side by side.
+if (exists("svg")) {
+    set terminal svg size 900,560 noenhanced font 'sans,11' background '#ffffff'
+    set output svg
+} else {
+    set terminal pngcairo size 900,560 noenhanced
+    set output png
+}
 set style data histograms
 set style histogram clustered gap 1
 set style fill solid 0.8 border -1

@@ -3,8 +3,15 @@
 # N^-1 and N^-3/2 drawn through each method's first point.
 # Usage: gnuplot -e "csv='build/bench/integrate-conv.csv'; d=4; \
 #          png='build/bench/integrate-conv-d4.png'" bench/integrate_conv.gp
-set terminal pngcairo size 1500,500 noenhanced font ',9'
-set output png
+# svg='FILE' (instead of png='FILE') writes the chart as SVG; make bench
+# writes both, side by side.
+if (exists("svg")) {
+    set terminal svg size 1500,500 noenhanced font 'sans,9' background '#ffffff'
+    set output svg
+} else {
+    set terminal pngcairo size 1500,500 noenhanced font ',9'
+    set output png
+}
 set datafile separator ','
 set logscale xy
 set format y '%.0e'

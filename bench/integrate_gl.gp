@@ -2,8 +2,15 @@
 # cos(x) over [0,1] (exact zeros are drawn at 1e-17).
 # Usage: gnuplot -e "csv='build/bench/integrate-gl.csv'; \
 #          png='build/bench/integrate-gl.png'" bench/integrate_gl.gp
-set terminal pngcairo size 800,500 noenhanced
-set output png
+# svg='FILE' (instead of png='FILE') writes the chart as SVG; make bench
+# writes both, side by side.
+if (exists("svg")) {
+    set terminal svg size 800,500 noenhanced font 'sans,11' background '#ffffff'
+    set output svg
+} else {
+    set terminal pngcairo size 800,500 noenhanced
+    set output png
+}
 set datafile separator ','
 set logscale y
 set format y '%.0e'

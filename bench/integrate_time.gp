@@ -5,8 +5,15 @@
 # left out; each line joins a method's budgets 1e4 .. 1e7).
 # Usage: gnuplot -e "csv='build/bench/integrate-runs.csv'; d=10; \
 #          png='build/bench/integrate-time-d10.png'" bench/integrate_time.gp
-set terminal pngcairo size 1500,900 noenhanced font ',9'
-set output png
+# svg='FILE' (instead of png='FILE') writes the chart as SVG; make bench
+# writes both, side by side.
+if (exists("svg")) {
+    set terminal svg size 1500,900 noenhanced font 'sans,9' background '#ffffff'
+    set output svg
+} else {
+    set terminal pngcairo size 1500,900 noenhanced font ',9'
+    set output png
+}
 set datafile separator ','
 set logscale xy
 set format x '%.0e'

@@ -1,7 +1,14 @@
 # Chart of bench_seq's L2-resident rates: million coordinates/s by dims.
 # Usage: gnuplot -e "csv='build/bench/seq.csv'; png='build/bench/seq-rates.png'" bench/seq_rates.gp
-set terminal pngcairo size 900,560 noenhanced
-set output png
+# svg='FILE' (instead of png='FILE') writes the chart as SVG; make bench
+# writes both, side by side.
+if (exists("svg")) {
+    set terminal svg size 900,560 noenhanced font 'sans,11' background '#ffffff'
+    set output svg
+} else {
+    set terminal pngcairo size 900,560 noenhanced
+    set output png
+}
 set datafile separator ','
 set logscale xy
 set xlabel 'dimensions'

@@ -9,7 +9,9 @@
 #include <string.h>
 
 #include "cli.h"
+#include "compare.h"
 #include "integrate.h"
+#include "stability.h"
 
 typedef struct cli_command {
     const char *name;
@@ -26,6 +28,8 @@ static const cli_command commands[] = {
     {"merge", cli_cmd_merge, 1, "combine --part results of an integration"},
     {"ping", cli_cmd_ping, 0, "round-trip time and identity of a qmcd daemon"},
     {"stats", cli_cmd_stats, 0, "a qmcd daemon's counters"},
+    {"compare", cli_cmd_compare, 0, "methods on your job: error against time, charted"},
+    {"stability", cli_cmd_stability, 0, "every method on known failure cases: where bars lie"},
 };
 
 static void usage(FILE *f)
