@@ -72,7 +72,7 @@ void qmcd_usage(void)
           "\n"
           "Modbus (protocol/MODBUS.md), off by default, repeatable:\n"
           "  --modbus tcp:HOST:PORT          e.g. tcp:127.0.0.1:1502, tcp:[::1]:1502\n"
-          "  --modbus rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT]\n"
+          "  --modbus rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT][:rs485]\n"
           "  --modbus-allow CIDR,...         clients let in; required off loopback\n"
           "\n"
           "KEY (also usable as `key = value` in the config file), default:\n",

@@ -62,8 +62,9 @@ int qmcd__modbus_rtu_open(qmcd_modbus *mb, const qmcd_modbus_rtu_spec *spec, qmc
     r->mb = mb;
     r->spec = *spec;
     r->stop_fd = -1;
-    snprintf(r->name, sizeof r->name, "rtu:%s:%d:%c:%d:%d:%d", spec->device, spec->baud,
-             spec->parity, spec->data_bits, spec->stop_bits, spec->unit);
+    snprintf(r->name, sizeof r->name, "rtu:%s:%d:%c:%d:%d:%d%s", spec->device, spec->baud,
+             spec->parity, spec->data_bits, spec->stop_bits, spec->unit,
+             spec->rs485 ? ":rs485" : "");
     if (qmc_modbus_session_new(&r->sess) != 0) {
         snprintf(why, why_bytes, "modbus %s: out of memory", r->name);
         goto fail;
@@ -82,6 +83,16 @@ int qmcd__modbus_rtu_open(qmcd_modbus *mb, const qmcd_modbus_rtu_spec *spec, qmc
     if (modbus_set_slave(r->ctx, spec->unit) != 0 || modbus_connect(r->ctx) != 0) {
         snprintf(why, why_bytes, "modbus %s: cannot open the line: %s", r->name,
                  modbus_strerror(errno));
+        goto fail;
+    }
+    /* RS-485 half duplex: the UART's driver switches the transceiver's
+     * direction (TIOCSRS485); libmodbus only asks for it.  A line whose
+     * driver cannot (a USB adapter that does it in hardware, a pty) says
+     * so here rather than failing on the first answer. */
+    if (spec->rs485 && modbus_rtu_set_serial_mode(r->ctx, MODBUS_RTU_RS485) != 0) {
+        snprintf(why, why_bytes, "modbus %s: the line does not take RS-485 mode "
+                 "(TIOCSRS485: %s); drop ':rs485' if the adapter switches by itself",
+                 r->name, modbus_strerror(errno));
         goto fail;
     }
     *out = r;

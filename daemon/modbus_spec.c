@@ -39,26 +39,31 @@ static int parse_rtu(const char *spec, qmcd_modbus_rtu_spec *rtu, char *why, siz
         return -1;
     }
     strcpy(buf, spec);
-    /* The device may not contain ':'; the fields after it are fixed. */
-    char *field[6] = {0};
+    /* The device may not contain ':'; the fields after it are fixed, then
+     * an optional unit and an optional "rs485" flag, in that order. */
+    char *field[7] = {0};
     int nf = 0;
-    for (char *p = buf, *save = NULL; nf < 6; p = NULL) {
+    for (char *p = buf, *save = NULL; nf < 7; p = NULL) {
         char *t = strtok_r(p, ":", &save);
         if (!t)
             break;
         field[nf++] = t;
     }
     static const char usage[] =
-        "want rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT], e.g. rtu:/dev/ttyUSB0:19200:E:8:1";
+        "want rtu:DEVICE:BAUD:PARITY:DATABITS:STOPBITS[:UNIT][:rs485], "
+        "e.g. rtu:/dev/ttyUSB0:19200:E:8:1";
     size_t colons = 0;
     for (const char *p = spec; *p; p++)
         colons += *p == ':';
-    if (nf < 5 || colons > 5 || !spec[0] || spec[strlen(spec) - 1] == ':' ||
+    int rs485 = nf >= 6 && strcmp(field[nf - 1], "rs485") == 0;
+    if (nf < 5 || colons > (size_t)(5 + rs485) || !spec[0] || spec[strlen(spec) - 1] == ':' ||
         strstr(spec, "::")) {
         snprintf(why, n, "modbus: rtu:%s: %s", spec, usage);
         return -1;
     }
+    nf -= rs485;
     memset(rtu, 0, sizeof *rtu);
+    rtu->rs485 = rs485;
     if (field[0][0] != '/' || strlen(field[0]) >= sizeof rtu->device) {
         snprintf(why, n, "modbus: rtu:%s: the device must be an absolute path", spec);
         return -1;

@@ -20,6 +20,7 @@ typedef struct qmcd_modbus_rtu_spec {
     int data_bits;        /* 5..8 */
     int stop_bits;        /* 1 or 2 */
     int unit;             /* 1..247; 1 when not given */
+    int rs485;            /* 1: put the line in RS-485 mode (TIOCSRS485) */
 } qmcd_modbus_rtu_spec;
 
 /* "tcp:..." -> 1 with *hostport pointing after "tcp:"; "rtu:..." -> 2

@@ -21,18 +21,12 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 : "${QMCD:?QMCD must name the qmcd binary}"
-tmp=$(mktemp -d)
+. "$(dirname "$0")/lib.sh"
+# The daemon in $pid gets SIGTERM at exit; the test clears pid once it has
+# stopped it itself and checked the exit status.
 pid=
-cleanup() {
-    if [ -n "$pid" ]; then kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+term_vars=pid
 trap 'exit 1' INT TERM
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 unset QMC_ENDPOINT QMC_AUTH_KEY_FILE
 PEER="$(cd "$(dirname "$0")" && pwd)/authpeer.py"
 
@@ -68,9 +62,7 @@ for addr in tcp:0.0.0.0:0 'tcp:[::]:0'; do
 done
 "$QMCD" --foreground --listen tcp::0 --listen tcp:127.0.0.9:0 --ready-file "$tmp/r1" \
     2> "$tmp/err" & p1=$!
-i=0
-while [ ! -s "$tmp/r1" ] && kill -0 $p1 2>/dev/null && [ $i -lt 2000 ]; do
-    i=$((i + 1)); sleep 0.01; done
+wait_nonempty "$tmp/r1" $p1
 if grep -q '^tcp:127.0.0.1:' "$tmp/r1" 2>/dev/null && grep -q '^tcp:127.0.0.9:' "$tmp/r1"; then
     ok; else bad "tcp::0 is not loopback or 127.0.0.9 refused: $(cat "$tmp/r1" "$tmp/err")"; fi
 kill $p1 2>/dev/null; wait $p1 2>/dev/null
@@ -90,16 +82,7 @@ MAXF=3
     --auth-key "$tmp/key" --auth-max-failures $MAXF --auth-lockout-ms 3600000 \
     --ready-file "$tmp/ready" --log-level info 2> "$tmp/qmcd.log" &
 pid=$!
-i=0
-while [ ! -s "$tmp/ready" ]; do
-    if ! kill -0 "$pid" 2>/dev/null; then
-        echo "FAIL: qmcd exited before it was ready:"; cat "$tmp/qmcd.log"
-        pid=; echo "0 passed, 1 failed"; exit 1
-    fi
-    i=$((i + 1))
-    if [ $i -gt 2000 ]; then echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1; fi
-    sleep 0.01
-done
+wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
 UNIX="unix:$tmp/qmcd.sock"
 TCP=$(grep '^tcp:' "$tmp/ready")
 
@@ -128,9 +111,7 @@ if "$QMC" ping --connect "$UNIX" --count 1 > /dev/null 2> "$tmp/err"; then ok; e
     bad "unix socket without a key: $(cat "$tmp/err")"; fi
 # A key over TCP to a server that asks for none is refused by the client.
 "$QMCD" --foreground --listen tcp:127.0.0.1:0 --ready-file "$tmp/r3" 2> /dev/null & p3=$!
-i=0
-while [ ! -s "$tmp/r3" ] && kill -0 $p3 2>/dev/null && [ $i -lt 2000 ]; do
-    i=$((i + 1)); sleep 0.01; done
+wait_nonempty "$tmp/r3" $p3
 expect_fail "key to a keyless server" "did not ask for authentication" \
     "$QMC" ping --connect "$(grep '^tcp:' "$tmp/r3")" --count 1 --auth-key "$tmp/key"
 kill $p3 2>/dev/null; wait $p3 2>/dev/null
@@ -138,9 +119,7 @@ kill $p3 2>/dev/null; wait $p3 2>/dev/null
 # auth-unix 1: the Unix socket asks for the key too.
 "$QMCD" --foreground --listen "unix:$tmp/u.sock" --auth-key "$tmp/key" --auth-unix 1 \
     --ready-file "$tmp/r4" 2> /dev/null & p4=$!
-i=0
-while [ ! -s "$tmp/r4" ] && kill -0 $p4 2>/dev/null && [ $i -lt 2000 ]; do
-    i=$((i + 1)); sleep 0.01; done
+wait_nonempty "$tmp/r4" $p4
 expect_fail "auth-unix 1 without a key" "requires authentication" \
     "$QMC" ping --connect "unix:$tmp/u.sock" --count 1
 if "$QMC" ping --connect "unix:$tmp/u.sock" --count 1 --auth-key "$tmp/key" > /dev/null \
@@ -193,5 +172,4 @@ wait "$pid"
 rc=$?
 pid=
 [ $rc -eq 0 ] && ok || bad "qmcd exit status $rc after SIGTERM"
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

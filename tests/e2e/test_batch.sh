@@ -9,12 +9,7 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 PY=/usr/bin/python3
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 same_json() {
     "$PY" - "$1" "$2" <<'PYEOF'
@@ -62,5 +57,4 @@ rqmc|--integrand genz-gaussian --dims 6 --method rqmc --n 4096 --reps 14 --seed 
 mc|--integrand genz-oscillatory --dims 5 --method mc --n 700000 --seed 4
 scene|--scene $(cd "$(dirname "$0")/../scenes" && pwd)/phong_sphere.scene --method rqmc --n 2048 --reps 7
 EOF
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

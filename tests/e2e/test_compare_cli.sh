@@ -14,18 +14,11 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 : "${QMCD:?QMCD must name the qmcd binary}"
-tmp=$(mktemp -d)
+. "$(dirname "$0")/lib.sh"
+# The daemon in $pid gets SIGTERM at exit unless the test has stopped it.
 pid=
-cleanup() {
-    if [ -n "$pid" ]; then kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+term_vars=pid
 trap 'exit 1' INT TERM
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 unset QMC_ENDPOINT
 PY=/usr/bin/python3
 
@@ -172,5 +165,4 @@ rc=$?
 
 "$QMC" compare --help | grep -q 'Pareto' && ok || bad "--help does not mention the Pareto front"
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

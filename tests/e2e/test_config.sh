@@ -10,12 +10,7 @@ set -u
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
 EXAMPLE="$TOP/systemd/qmcd.conf"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 # expect_bad WHAT PATTERN ARGS...: exit 2, stdout empty, one stderr line
 # matching PATTERN (grep -E).
@@ -78,5 +73,4 @@ else bad "--check-config created its listener"; fi
 printf 'max-points = 1M\nthreads = 1\n' > "$tmp/good.conf"
 if "$QMCD" --check-config --config "$tmp/good.conf" | grep -q "good.conf: configuration is valid"; then ok
 else bad "a valid file was not reported valid"; fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -19,64 +19,12 @@ set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
 PY=/usr/bin/python3
 PEER="$(cd "$(dirname "$0")" && pwd)/qmcpeer.py"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 # peer SCENARIO ARGS...: runs a qmcpeer scenario and counts its ok/FAIL lines.
 peer() {
     "$PY" "$PEER" "$@" > "$tmp/peer.out" 2>&1
-    n_ok=$(grep -c '^ok ' "$tmp/peer.out")
-    n_bad=$(grep -c '^FAIL ' "$tmp/peer.out")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep '^FAIL ' "$tmp/peer.out"
-    if [ "$n_ok" -eq 0 ] && [ "$n_bad" -eq 0 ]; then
-        bad "peer $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
-    fi
-}
-
-# wait_file FILE: polls (50 ms steps, at most 10 s) until FILE exists.
-wait_file() {
-    i=0
-    while [ ! -e "$1" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
-    [ -e "$1" ]
-}
-
-# wait_exit PID SECONDS: polls until PID has exited; 0 if it did in time.
-wait_exit() {
-    i=0
-    lim=$(($2 * 20))
-    while kill -0 "$1" 2>/dev/null && [ $i -lt $lim ]; do
-        # a zombie child counts as exited
-        case $(ps -o stat= -p "$1" 2>/dev/null) in Z*) return 0 ;; esac
-        sleep 0.05
-        i=$((i + 1))
-    done
-    ! kill -0 "$1" 2>/dev/null || case $(ps -o stat= -p "$1" 2>/dev/null) in Z*) true ;; *) false ;; esac
-}
-
-# start NAME ARGS...: qmcd --foreground in the background; sets $pid and
-# waits for its ready file (listeners, one per line after "pid N").
-start() {
-    name=$1
-    shift
-    rm -f "$tmp/$name.ready"
-    "$QMCD" --foreground --ready-file "$tmp/$name.ready" "$@" 2> "$tmp/$name.log" &
-    pid=$!
-    pids="$pids $pid"
-    if ! wait_file "$tmp/$name.ready"; then
-        bad "$name: not ready within 10 s: $(head -c 500 "$tmp/$name.log")"
-        return 1
-    fi
+    tally "$tmp/peer.out" || bad "peer $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
 }
 
 FP=$("$QMC" --version | sed -n 's/.*fingerprint: *//p')
@@ -242,8 +190,7 @@ if "$QMCD" --listen "unix:$tmp/d.sock" --ready-file "$tmp/d.ready" --threads 1 2
     pids="$pids $DPID"
     peer ping "unix:$tmp/d.sock"
     kill -TERM "$DPID"
-    i=0
-    while kill -0 "$DPID" 2>/dev/null && [ $i -lt 100 ]; do sleep 0.05; i=$((i + 1)); done
+    wait_gone "$DPID" 100
     if ! kill -0 "$DPID" 2>/dev/null && [ ! -e "$tmp/d.sock" ]; then ok
     else bad "daemonized qmcd did not stop on SIGTERM"; fi
 else
@@ -339,5 +286,4 @@ if [ $fail -ne 0 ]; then
     echo "--- main daemon log (tail)"
     tail -n 30 "$tmp/main.log"
 fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -15,22 +15,7 @@ PY=/usr/bin/python3
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
 CFG="$TOP/systemd/haproxy-qmcd.cfg"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
-finish() {
-    echo "$pass passed, $fail failed"
-    [ $fail -eq 0 ]
-    exit
-}
+. "$(dirname "$0")/lib.sh"
 
 if haproxy -c -f "$CFG" > "$tmp/c.out" 2>&1; then ok; else bad "haproxy -c: $(cat "$tmp/c.out")"; fi
 
@@ -42,8 +27,7 @@ for r in 1 2 3; do
     pids="$pids $!"
 done
 for r in 1 2 3; do
-    i=0
-    while [ ! -e "$tmp/r$r.ready" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
+    wait_file "$tmp/r$r.ready"
     eval "P$r=\$(sed -n 's/^tcp:127.0.0.1://p' '$tmp/r$r.ready')"
 done
 [ -n "$P1" ] && [ -n "$P2" ] && [ -n "$P3" ] || { bad "replicas did not start"; finish; }
@@ -68,8 +52,7 @@ while True:
     threading.Thread(target=echo, args=(c,), daemon=True).start()
 ' "$tmp/echo.port" &
 pids="$pids $!"
-i=0
-while [ ! -e "$tmp/echo.port" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
+wait_file "$tmp/echo.port"
 PE=$(cat "$tmp/echo.port")
 
 # ---- HAProxy with the shipped file --------------------------------------------

@@ -19,17 +19,7 @@ set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
 PY=/usr/bin/python3
 HERE="$(cd "$(dirname "$0")" && pwd)"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 # Sanitizers and a loaded CI machine make the daemon larger, never the
 # growth a leak or an unbounded buffer would cause (hundreds of MB).
 RSS_MB=${HOSTILE_RSS_MB:-96}
@@ -40,32 +30,23 @@ hostile() {
     shift
     "$PY" "$HERE/hostilepeer.py" "$scenario" "unix:$SOCK" "$MAIN" "$tmp/ref.f64" "$RSS_MB" \
         "$@" > "$tmp/h.out" 2>&1
-    n_ok=$(grep -c '^ok ' "$tmp/h.out")
-    n_bad=$(grep -c '^FAIL ' "$tmp/h.out")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep "^FAIL " "$tmp/h.out"; [ -n "${HOSTILE_VERBOSE:-}" ] && grep -E "^ok (load|saturated|after)" "$tmp/h.out"
-    [ "$n_ok" -gt 0 ] || [ "$n_bad" -gt 0 ] || bad "hostile peer printed nothing: $(head -c 300 "$tmp/h.out")"
+    tally "$tmp/h.out"
+    h_st=$?
+    [ -n "${HOSTILE_VERBOSE:-}" ] && grep -E "^ok (load|saturated|after)" "$tmp/h.out"
+    [ $h_st -eq 0 ] || bad "hostile peer printed nothing: $(head -c 300 "$tmp/h.out")"
 }
 
-wait_file() {
-    i=0
-    while [ ! -e "$1" ] && [ $i -lt 400 ]; do sleep 0.05; i=$((i + 1)); done
-    [ -e "$1" ]
-}
-gone() { ! kill -0 "$1" 2>/dev/null; }
-wait_gone() {
-    i=0
-    while ! gone "$1" && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
-    gone "$1"
-}
+# start: this test's own, not lib.sh's: one daemon on $SOCK with
+# $tmp/qmcd.conf, its log appended across restarts, its PID in $MAIN.  Here
+# every wait_file is given 400 steps and every wait_gone 1200, twice and six
+# times lib.sh's default: the daemon is waited for under the hostile load.
 start() {
     rm -f "$tmp/ready"
     "$QMCD" --foreground --ready-file "$tmp/ready" --config "$tmp/qmcd.conf" \
         --listen "unix:$SOCK" 2>> "$tmp/qmcd.log" &
     MAIN=$!
     pids="$pids $MAIN"
-    wait_file "$tmp/ready" || { bad "qmcd not ready: $(tail -c 500 "$tmp/qmcd.log")"; return 1; }
+    wait_file "$tmp/ready" 400 || { bad "qmcd not ready: $(tail -c 500 "$tmp/qmcd.log")"; return 1; }
 }
 
 cat > "$tmp/qmcd.conf" <<CONF
@@ -108,7 +89,7 @@ hostile specs
 
 # SIGKILL and restart: the stale socket file is replaced.
 kill -9 "$MAIN"
-wait_gone "$MAIN"
+wait_gone "$MAIN" 1200
 wait "$MAIN" 2>/dev/null
 if [ -S "$SOCK" ]; then ok; else bad "SIGKILL left no socket file to test"; fi
 start || { echo "$pass passed, $((fail + 1)) failed"; exit 1; }
@@ -119,9 +100,9 @@ hostile specs
 # SIGTERM with jobs running: exit 0, socket and lock file removed.
 "$PY" "$HERE/qmcpeer.py" sigterm_jobs "unix:$SOCK" "$tmp/jobs.marker" > "$tmp/sigterm.out" 2>&1 &
 PEER=$!
-if wait_file "$tmp/jobs.marker"; then
+if wait_file "$tmp/jobs.marker" 400; then
     kill -TERM "$MAIN"
-    if wait_gone "$MAIN"; then
+    if wait_gone "$MAIN" 1200; then
         wait "$MAIN"
         st=$?
         if [ $st -eq 0 ] && [ ! -e "$SOCK" ] && [ ! -e "$SOCK.lock" ]; then ok
@@ -138,5 +119,4 @@ if grep -q '^FAIL' "$tmp/sigterm.out"; then bad "$(grep '^FAIL' "$tmp/sigterm.ou
 if grep -q "ERROR: AddressSanitizer\|runtime error:" "$tmp/qmcd.log"; then
     bad "sanitizer report in the daemon log: $(grep -m1 "AddressSanitizer\|runtime error:" "$tmp/qmcd.log")"
 fi
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

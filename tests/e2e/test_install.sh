@@ -16,17 +16,7 @@ set -u
 : "${BUILD:?BUILD must name the build directory}"
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    [ -n "${KEEP_TMP:-}" ] && echo "kept $tmp" || rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 check() { if eval "$1"; then ok; else bad "$2"; fi; }
 
 D="$tmp/root"
@@ -120,8 +110,7 @@ S="$tmp/qmcd.sock"
 "$R/sbin/qmcd" --foreground --threads 1 --listen "unix:$S" --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
 QPID=$!
 pids="$pids $QPID"
-i=0
-while [ ! -e "$tmp/ready" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
+wait_file "$tmp/ready"
 "$QMC" points --seq sobol --dims 2 --count 8 --format csv | awk -F, '{ printf "point %d  %s, %s\n", NR - 1, $1, $2 }' > "$tmp/want.txt"
 for ex in points_example static_example; do
     if LD_LIBRARY_PATH="$R/lib" "$tmp/ex/$ex" "unix:$S" > "$tmp/$ex.txt" 2> "$tmp/$ex.err"; then
@@ -164,5 +153,4 @@ check "[ -z '$left' ]" "after install + uninstall left: $left"
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log "$tmp"/*.err 2>/dev/null; then
     bad "sanitizer report"
 else ok; fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -6,12 +6,7 @@
 # Env: QMC = the qmc binary.  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 # json FIELD < file: the raw value of a top-level field of a one-line object.
 json() { sed -n "s/.*\"$1\":\\([^,}]*\\).*/\\1/p"; }
@@ -170,5 +165,4 @@ err_case "do not apply" integrate --scene "$scenes/lambert_sphere.scene" --dims 
 err_case "unknown strategy" integrate --scene "$scenes/lambert_sphere.scene" --strategy best --method rqmc
 err_case "no scene" integrate --integrand exp --dims 1 --strategy light --method mc
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

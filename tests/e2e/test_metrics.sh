@@ -14,17 +14,7 @@ set -u
 PY=/usr/bin/python3
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 if "$PY" "$HERE/promparse.py" --selftest > "$tmp/self.out"; then ok
 else bad "the Prometheus parser accepts bad input: $(cat "$tmp/self.out")"; fi
@@ -33,8 +23,7 @@ S="$tmp/qmcd.sock"
 "$QMCD" --foreground --threads 1 --listen "unix:$S" --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
 D=$!
 pids="$pids $D"
-i=0
-while [ ! -e "$tmp/ready" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
+wait_file "$tmp/ready"
 U="unix:$S"
 "$QMC" ping --connect "$U" --count 37 > /dev/null || bad "ping failed"
 "$QMC" points --seq sobol --dims 4 --count 1000 --format f64 --connect "$U" > /dev/null ||
@@ -114,5 +103,4 @@ wait "$D" || bad "qmcd: SIGTERM did not exit 0"
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in the daemon log"
 else ok; fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

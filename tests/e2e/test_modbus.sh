@@ -28,18 +28,12 @@ set -u
 here=$(cd "$(dirname "$0")" && pwd)
 CLIENT="$BUILD/tests/modbus-client"
 PEER="/usr/bin/python3 $here/modbus_peer.py"
-tmp=$(mktemp -d)
+. "$(dirname "$0")/lib.sh"
+# Every process here gets SIGTERM at exit, peers first, socat last; each
+# variable is cleared once the test has stopped that process itself.
 pid= socat_pid= stall_pid= lim_pid=
-cleanup() {
-    for p in $stall_pid $lim_pid $pid $socat_pid; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+term_vars="stall_pid lim_pid pid socat_pid"
 trap 'exit 1' INT TERM
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 # expect NAME CONDITION-EXIT-STATUS: ok when the previous command's test held.
 check() { if [ "$2" -eq 0 ]; then ok; else bad "$1"; fi; }
 
@@ -81,6 +75,15 @@ while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
     sleep 0.01
 done
 
+# RS-485 mode on a line whose driver cannot switch direction (a pty): one
+# line naming the problem, before anything is served.
+"$QMCD" --foreground --listen "unix:$tmp/x.sock" --modbus "rtu:$tmp/ttyq:19200:E:8:1:5:rs485" \
+    > /dev/null 2> "$tmp/err"
+rc=$?
+[ $rc -ne 0 ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q "RS-485" "$tmp/err" &&
+    [ ! -e "$tmp/x.sock" ]
+check "rtu ...:rs485 on a pty: exit $rc, $(cat "$tmp/err")" $?
+
 # ---- 2. the daemon -----------------------------------------------------------
 # The same keys work in the config file: the transports and the allow list
 # come from it (two modbus-allow lines add up), the limits from flags.
@@ -95,16 +98,7 @@ EOF
     --modbus-frame-timeout-ms 3000 --ready-file "$tmp/ready" --log-level info \
     2> "$tmp/qmcd.log" &
 pid=$!
-i=0
-while [ ! -s "$tmp/ready" ]; do
-    if ! kill -0 "$pid" 2>/dev/null; then
-        echo "FAIL: qmcd exited before it was ready:"; cat "$tmp/qmcd.log"
-        pid=; echo "0 passed, 1 failed"; exit 1
-    fi
-    i=$((i + 1))
-    if [ $i -gt 2000 ]; then echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1; fi
-    sleep 0.01
-done
+wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
 P4=$(sed -n 's/^modbus:tcp:127\.0\.0\.1:\([0-9]*\)$/\1/p' "$tmp/ready")
 P6=$(sed -n 's/^modbus:tcp:\[::1\]:\([0-9]*\)$/\1/p' "$tmp/ready")
 grep -q "^modbus:rtu:$tmp/ttyq:19200:E:8:1:5$" "$tmp/ready"
@@ -239,10 +233,7 @@ check "the stalled frame is logged" $?
     --ready-file "$tmp/lim.ready" \
     2> "$tmp/lim.log" &
 lim_pid=$!
-i=0
-while [ ! -s "$tmp/lim.ready" ] && kill -0 $lim_pid 2>/dev/null && [ $i -lt 2000 ]; do
-    i=$((i + 1)); sleep 0.01
-done
+wait_nonempty "$tmp/lim.ready" $lim_pid
 LP=$(sed -n 's/^modbus:tcp:127\.0\.0\.1:\([0-9]*\)$/\1/p' "$tmp/lim.ready")
 $PEER limits 127.0.0.1 "$LP" > "$tmp/lim.out" 2>&1
 check "limits: $(grep FAIL "$tmp/lim.out")" $?
@@ -285,5 +276,4 @@ pid=
 check "qmcd exits 0 on SIGTERM with Modbus transports (rc $rc)" $rc
 if grep -E "error|err:" "$tmp/qmcd.log" > /dev/null; then bad "errors in the log:"; cat "$tmp/qmcd.log"; else ok; fi
 
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -17,18 +17,12 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 : "${QMCD:?QMCD must name the qmcd binary}"
-tmp=$(mktemp -d)
+. "$(dirname "$0")/lib.sh"
+# The daemon in $pid gets SIGTERM at exit; the test clears pid once it has
+# stopped it itself and checked the exit status.
 pid=
-cleanup() {
-    if [ -n "$pid" ]; then kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+term_vars=pid
 trap 'exit 1' INT TERM
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 unset QMC_ENDPOINT
 
 if [ ! -x "$QMCD" ]; then
@@ -45,18 +39,7 @@ MAXPTS=200000
 pid=$!
 # Ready when the ready file exists (written by rename once listening); give
 # up if the daemon dies or after about 20 s.
-i=0
-while [ ! -s "$tmp/ready" ]; do
-    if ! kill -0 "$pid" 2>/dev/null; then
-        echo "FAIL: qmcd exited before it was ready:"; cat "$tmp/qmcd.log"
-        pid=; echo "0 passed, 1 failed"; exit 1
-    fi
-    i=$((i + 1))
-    if [ $i -gt 2000 ]; then
-        echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1
-    fi
-    sleep 0.01
-done
+wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
 UNIX="unix:$tmp/qmcd.sock"
 TCP=$(grep '^tcp:' "$tmp/ready" | head -n 1)
 case "$TCP" in tcp:127.0.0.1:[1-9]*) ok ;; *) bad "no TCP address in the ready file: $(cat "$tmp/ready")";; esac
@@ -230,5 +213,4 @@ kill "$pid"
 if wait "$pid"; then ok; else bad "qmcd did not exit 0 on SIGTERM"; fi
 pid=
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -14,13 +14,8 @@
 # Env: QMC (binary).  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/lib.sh"
 trap 'exit 1' INT TERM
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 PY=/usr/bin/python3
 
 CASES=jump-step-1d,peak-gauss-1d,overflow-disc-2d,jump-disc-2d
@@ -133,5 +128,4 @@ rc=$?
 
 "$QMC" stability --help | grep -q 'SILENT' && ok || bad "--help does not explain SILENT"
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -19,17 +19,7 @@ set -u
 PY=/usr/bin/python3
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 # wait_for FILE PATTERN: polls (50 ms steps, at most 10 s) for a line of
 # FILE matching the grep pattern.
@@ -46,11 +36,6 @@ wait_count() {
         i=$((i + 1))
     done
     [ "$(grep -c -- "$2" "$1" 2>/dev/null)" -ge "$3" ]
-}
-wait_gone() {
-    i=0
-    while kill -0 "$1" 2>/dev/null && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
-    ! kill -0 "$1" 2>/dev/null
 }
 
 # ---- 1. systemd-analyze verify and security -----------------------------------
@@ -163,5 +148,4 @@ kill "$NPID"
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

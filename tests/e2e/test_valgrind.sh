@@ -17,22 +17,8 @@ if nm "$QMCD" 2>/dev/null | grep -q __asan_init; then
     echo "0 passed, 0 failed"
     exit 0
 fi
-tmp=$(mktemp -d)
-VPID=""
-cleanup() { [ -n "$VPID" ] && kill -9 "$VPID" 2>/dev/null; rm -rf "$tmp"; }
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
-count() {
-    n_ok=$(grep -c '^ok ' "$1")
-    n_bad=$(grep -c '^FAIL ' "$1")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep '^FAIL ' "$1"
-    [ "$n_ok" -gt 0 ] || [ "$n_bad" -gt 0 ] || bad "peer printed nothing: $(head -c 300 "$1")"
-}
+. "$(dirname "$0")/lib.sh"
+count() { tally "$1" || bad "peer printed nothing: $(head -c 300 "$1")"; }
 SOCK="$tmp/v.sock"
 cat > "$tmp/qmcd.conf" <<CONF
 threads = 2
@@ -47,8 +33,9 @@ valgrind --tool=memcheck --error-exitcode=99 --leak-check=full \
     "$QMCD" --foreground --config "$tmp/qmcd.conf" --listen "unix:$SOCK" \
     --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
 VPID=$!
-i=0
-while [ ! -e "$tmp/ready" ] && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+pids="$pids $VPID"
+# valgrind starts qmcd many times slower: six times lib.sh's default wait
+wait_file "$tmp/ready" 1200
 if [ ! -e "$tmp/ready" ]; then
     bad "qmcd under valgrind not ready: $(tail -c 500 "$tmp/valgrind.log")"
     echo "$pass passed, $fail failed"
@@ -82,15 +69,13 @@ kill -HUP "$VPID"
 "$PY" "$HERE/qmcpeer.py" ping "$U" > "$tmp/p.out" 2>&1
 count "$tmp/p.out"
 kill -TERM "$VPID"
-i=0
-while kill -0 "$VPID" 2>/dev/null && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+wait_gone "$VPID" 1200
 wait "$VPID"
 st=$?
-VPID=""
+forget "$VPID"
 if [ $st -eq 0 ]; then ok
 else bad "qmcd under valgrind exited $st: $(grep -A4 -m3 'Invalid\|uninitialised\|definitely lost\|indirectly lost' "$tmp/valgrind.log" | head -20)"; fi
 if grep -q "ERROR SUMMARY: 0 errors" "$tmp/valgrind.log"; then ok
 else bad "valgrind: $(grep 'ERROR SUMMARY' "$tmp/valgrind.log")"; fi
 [ -n "${VALGRIND_VERBOSE:-}" ] && grep -E "ERROR SUMMARY|definitely|indirectly|in use at exit" "$tmp/valgrind.log"
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+finish

@@ -58,7 +58,19 @@ static void test_specs(void **state)
     assert_int_equal(qmcd_modbus_spec_parse("rtu:/dev/x:9600:N:7:2:247", &hp, &r, why,
                                             sizeof why), 2);
     assert_int_equal(r.unit, 247);
+    assert_int_equal(r.rs485, 0);
+    assert_int_equal(qmcd_modbus_spec_parse("rtu:/dev/x:9600:N:8:1:rs485", &hp, &r, why,
+                                            sizeof why), 2);
+    assert_int_equal(r.unit, 1);
+    assert_int_equal(r.rs485, 1);
+    assert_int_equal(qmcd_modbus_spec_parse("rtu:/dev/x:9600:N:8:1:12:rs485", &hp, &r, why,
+                                            sizeof why), 2);
+    assert_int_equal(r.unit, 12);
+    assert_int_equal(r.rs485, 1);
     static const char *const bad[] = {
+        "rtu:/dev/x:9600:N:8:1:12:rs486", "rtu:/dev/x:9600:N:8:1:rs485:12",
+        "rtu:/dev/x:9600:N:8:1:12:rs485:", "rtu:/dev/x:9600:N:8:rs485",
+        "rtu:/dev/x:9600:N:8:1:12:rs485:rs485",
         "tcp:127.0.0.1", "tcp:127.0.0.1:65536", "tcp::1502x", "udp:1.2.3.4:5", "rtu:",
         "rtu:/dev/x:9600:E:8", "rtu:dev/x:9600:E:8:1", "rtu:/dev/x:9600:X:8:1",
         "rtu:/dev/x:9600:E:9:1", "rtu:/dev/x:9600:E:8:3", "rtu:/dev/x:10:E:8:1",
