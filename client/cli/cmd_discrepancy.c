@@ -16,6 +16,7 @@
 
 #include "cli.h"
 #include "csv_read.h"
+#include "json.h"
 #include "qmc/quality.h"
 
 /* n^2 d at the caps is 6.4e9 multiply-adds: a few seconds. */
@@ -24,11 +25,15 @@
 #define DISC_MAX_LINE_BYTES 4096u
 
 static const char discrepancy_help[] =
-    "usage: qmc discrepancy --method l2-star|cd|wd|md|star [--in FILE]\n"
+    "usage: qmc discrepancy --method l2-star|cd|wd|md|star [--in FILE] [--json]\n"
     "\n"
     "Reads points as CSV (stdin by default): one point per line, coordinates\n"
     "in [0,1] joined by ','; blank lines and lines starting with '#' are\n"
     "skipped.  Prints the discrepancy as \"%.17g\" and a newline.\n"
+    "\n"
+    "  --json   one JSON object instead: method, value, squared (whether the\n"
+    "           value is the squared discrepancy), exact (false when star\n"
+    "           gives only a lower bound), points, dims\n"
     "\n"
     "  l2-star  L2 star discrepancy (Warnock 1972), NOT squared\n"
     "  cd       centered L2 discrepancy (Hickernell 1998), SQUARED\n"
@@ -62,9 +67,11 @@ static int read_points(FILE *f, cli_csv_reader *r)
     return 0;
 }
 
+/* *exact is 0 only for a star discrepancy that is a lower bound. */
 static int compute(const cli_csv_reader *pb, int star, qmc_disc_method method,
-                   double *value)
+                   double *value, int *exact)
 {
+    *exact = 1;
     if (!star) {
         int err = qmc_disc_compute(pb->v, pb->n, pb->dims, method, value);
         return err ? cli_error("discrepancy: %s", qmc_strerror(err)) : 0;
@@ -73,12 +80,11 @@ static int compute(const cli_csv_reader *pb, int star, qmc_disc_method method,
     double *work = len ? malloc(len * sizeof *work) : NULL;
     if (!work)
         return cli_error("discrepancy: out of memory for the star workspace");
-    int exact = 0;
-    int err = qmc_star_compute(pb->v, pb->n, pb->dims, 0, work, value, &exact);
+    int err = qmc_star_compute(pb->v, pb->n, pb->dims, 0, work, value, exact);
     free(work);
     if (err)
         return cli_error("discrepancy: %s", qmc_strerror(err));
-    if (!exact)
+    if (!*exact)
         fprintf(stderr, "qmc: discrepancy: star: lower bound (%u dimensions, "
                 "too many critical boxes to check all)\n", pb->dims);
     return 0;
@@ -89,10 +95,12 @@ int cli_cmd_discrepancy(int argc, char **argv)
     static const struct option longopts[] = {
         {"method", required_argument, 0, 0},
         {"in", required_argument, 0, 0},
+        {"json", no_argument, 0, 0},
         {"help", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
     const char *method_name = NULL, *in = NULL;
+    int json = 0;
     int first = 1, more;
     const char *name, *arg;
     while ((more = cli_next_option("discrepancy", argc, argv, longopts, &first, &name, &arg)) > 0) {
@@ -104,6 +112,8 @@ int cli_cmd_discrepancy(int argc, char **argv)
             method_name = arg;
         if (strcmp(name, "in") == 0)
             in = arg;
+        if (strcmp(name, "json") == 0)
+            json = 1;
     }
     if (more < 0)
         return CLI_EXIT_FAIL;
@@ -127,6 +137,7 @@ int cli_cmd_discrepancy(int argc, char **argv)
     }
     cli_csv_reader pb;
     double value = 0.0;
+    int exact = 1;
     int rc = 0;
     if (cli_csv_init(&pb, source, DISC_MAX_POINTS, DISC_MAX_DIMS, DISC_MAX_LINE_BYTES) != 0)
         rc = cli_error("discrepancy: %s", pb.why);
@@ -135,11 +146,28 @@ int cli_cmd_discrepancy(int argc, char **argv)
     if (f != stdin)
         fclose(f);
     if (rc == 0)
-        rc = compute(&pb, star, method, &value);
+        rc = compute(&pb, star, method, &value, &exact);
+    size_t n_points = pb.n; /* for --json, before the reader lets go */
+    uint32_t dims = pb.dims;
     cli_csv_close(&pb);
     if (rc != 0)
         return rc;
 
+    if (json) {
+        /* l2-star and star are the discrepancy itself; cd, wd and md are
+         * squared, as scipy returns them. */
+        putchar('{');
+        cli_json_str(stdout, "method", method_name, 1);
+        cli_json_num(stdout, "value", value, 1);
+        cli_json_bool(stdout, "squared", !star && method != QMC_DISC_L2_STAR, 1);
+        cli_json_bool(stdout, "exact", exact, 1);
+        cli_json_u64(stdout, "points", n_points, 1);
+        cli_json_u64(stdout, "dims", dims, 0);
+        fputs("}\n", stdout);
+        if (ferror(stdout) || fflush(stdout) != 0)
+            return cli_error("discrepancy: writing the result: %s", strerror(errno));
+        return CLI_EXIT_OK;
+    }
     char out[40];
     int len = snprintf(out, sizeof out, "%.17g\n", value);
     if (cli_write_all(stdout, out, (size_t)len, "the result") != 0 ||
