@@ -323,7 +323,8 @@ BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
 SO_VERSION  := 0.1.0
 SO_NAME     := libqmcclient.so.0
 D := $(DESTDIR)
-INSTALL_DOCS := README.md NOTICE docs/OPERATIONS.md systemd/haproxy-qmcd.cfg
+INSTALL_DOCS := README.md NOTICE $(wildcard docs/*.md) protocol/PROTOCOL.md \
+                protocol/MODBUS.md systemd/haproxy-qmcd.cfg
 
 install: all
 	install -d $(D)$(BINDIR) $(D)$(SBINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/qmc \
