@@ -113,7 +113,8 @@ $(SOCLIENT): $(CLIENT_OBJ) $(PROTO_OBJ) $(CORE_OBJ)
 $(BUILD)/qmcclient.pc: client/qmcclient.pc.in
 	sed -e 's|@PREFIX@|$(PREFIX)|g' $< > $@
 
-# The CLI links the client library exactly as any other user would.
+# The CLI links the client library exactly as any other user would
+# (LDLIBS' libsodium also gives it the SHA-256 of --part files).
 $(QMC): $(CLI_OBJ) $(ALL_LIBS)
 	$(CC) $(CFLAGS) -pthread -o $@ $(CLI_OBJ) $(ALL_LIBS) $(LDLIBS) $(LDFLAGS)
 
@@ -135,6 +136,15 @@ $(BUILD)/tests/test_peers: $(BUILD)/daemon/peers.o
 # test_integrate_memory counts libqmc's allocations through wrappers.
 $(BUILD)/tests/test_integrate_memory: UNIT_DAEMON_OBJ := \
   -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc,--wrap=free
+
+# The CLI's file pieces (pure readers, outfile.c) have a unit test that
+# links them beside the libraries.
+CLI_UNIT_SRC := client/cli/linebuf.c client/cli/csv_read.c client/cli/part_read.c \
+                client/cli/outfile.c client/cli/cli_common.c
+$(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
+	  -lcmocka $(LDLIBS) $(LDFLAGS)
 
 # The Modbus e2e test's libmodbus master (tests/e2e/test_modbus.sh).
 MODBUS_CLIENT := $(BUILD)/tests/modbus-client
@@ -203,8 +213,12 @@ fuzz-lib:
 # FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
 # compiles sources in itself pulls nothing twice.
 FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
+FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
+FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
+build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
+build/fuzz/fuzz_part: $(FUZZ_SRCS_part)
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
-	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -o $@ $< \
+	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -Iclient/cli -o $@ $< \
 	  $(FUZZ_SRCS_$*) build/fuzz/libqmcproto.a build/fuzz/libqmc.a -lm $(SODIUM_LIBS)
 endif
 
@@ -318,7 +332,8 @@ BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
 SO_VERSION  := 0.1.0
 SO_NAME     := libqmcclient.so.0
 D := $(DESTDIR)
-INSTALL_DOCS := README.md NOTICE docs/OPERATIONS.md systemd/haproxy-qmcd.cfg
+INSTALL_DOCS := README.md NOTICE $(wildcard docs/*.md) protocol/PROTOCOL.md \
+                protocol/MODBUS.md systemd/haproxy-qmcd.cfg
 
 install: all
 	install -d $(D)$(BINDIR) $(D)$(SBINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/qmc \

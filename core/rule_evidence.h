@@ -8,7 +8,9 @@
  * the nonzero values and sums |f|, and after the rule returns raises
  * QMC_FLAG_UNRESOLVED (with QMC_FLAG_ERROR_UNRELIABLE) when
  *  - no node returned a nonzero finite value (0 +- 0: the rule cannot tell
- *    a zero integrand from a peak between its nodes), or
+ *    a zero integrand from a peak between its nodes), or some did, all of
+ *    one sign, and the estimate is exactly 0 (the nodes that saw mass were
+ *    refined away), or
  *  - the bar is at least QMC__UNRESOLVED_SHARE (a tenth) of the mass
  *    scale max(|estimate|, mean |f| over the nodes): |fine - coarse| is
  *    an error estimate only once the rule is in its asymptotic regime,
@@ -33,6 +35,7 @@
 typedef struct qmc__node_stats {
     uint64_t evals;    /* node values seen */
     uint64_t nonzero;  /* of which finite and not 0 */
+    uint64_t positive; /* of those, > 0 */
     double sum_abs;    /* sum of |f| over those */
 } qmc__node_stats;
 

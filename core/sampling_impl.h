@@ -31,7 +31,9 @@ void qmc__top_merge(double *a, const double *b);
  * heavy_tail from the pooled top values of `finite` finite points, and
  * the "cannot tell" flags - few_nonzero, tail_untested, zero_spread and an
  * infinite bar - which mark a bar resting on evidence that cannot see the
- * failure; has_bar is 0 for plain qmc, which claims no bar. */
-void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite, int has_bar);
+ * failure; has_bar is 0 for plain qmc, which claims no bar; singular is
+ * whether the integrand declares a singularity (the stronger tail test). */
+void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite, int has_bar,
+                            int singular);
 
 #endif

@@ -2,8 +2,9 @@
  * cmd_discrepancy.c - `qmc discrepancy`: the discrepancy of a point set
  * read as CSV, computed by libqmc (qmc/quality.h).
  *
- * The whole input is read and checked before anything is computed, so an
- * error names its line and never leaves output on stdout.  Input is capped
+ * The whole input is read and checked (csv_read.c, a pure reader the
+ * fuzzer drives too) before anything is computed, so an error names its
+ * line and never leaves output on stdout.  Input is capped
  * (points, coordinates per point, bytes per line) because the measures
  * cost O(n^2 d): the caps are what keeps one call within seconds.
  */
@@ -14,6 +15,8 @@
 #include <string.h>
 
 #include "cli.h"
+#include "csv_read.h"
+#include "json.h"
 #include "qmc/quality.h"
 
 /* n^2 d at the caps is 6.4e9 multiply-adds: a few seconds. */
@@ -22,11 +25,15 @@
 #define DISC_MAX_LINE_BYTES 4096u
 
 static const char discrepancy_help[] =
-    "usage: qmc discrepancy --method l2-star|cd|wd|md|star [--in FILE]\n"
+    "usage: qmc discrepancy --method l2-star|cd|wd|md|star [--in FILE] [--json]\n"
     "\n"
     "Reads points as CSV (stdin by default): one point per line, coordinates\n"
     "in [0,1] joined by ','; blank lines and lines starting with '#' are\n"
     "skipped.  Prints the discrepancy as \"%.17g\" and a newline.\n"
+    "\n"
+    "  --json   one JSON object instead: method, value, squared (whether the\n"
+    "           value is the squared discrepancy), exact (false when star\n"
+    "           gives only a lower bound), points, dims\n"
     "\n"
     "  l2-star  L2 star discrepancy (Warnock 1972), NOT squared\n"
     "  cd       centered L2 discrepancy (Hickernell 1998), SQUARED\n"
@@ -44,124 +51,27 @@ static const char discrepancy_help[] =
     "per line (the work grows as points^2 x coordinates).  Any error prints\n"
     "one line to stderr and exits with status 2.\n";
 
-typedef struct point_buf {
-    double *v;
-    size_t n;        /* points read */
-    size_t cap;      /* points the buffer holds */
-    uint32_t dims;   /* from the first point; 0 before it */
-} point_buf;
-
-/* Appends one point; grows the buffer by doubling up to the point cap. */
-static int push_point(point_buf *pb, const double *x)
+/* Reads every point of f (fed to the pure reader in csv_read.c).  Returns
+ * 0 or CLI_EXIT_FAIL (printed). */
+static int read_points(FILE *f, cli_csv_reader *r)
 {
-    if (pb->n == pb->cap) {
-        size_t cap = pb->cap ? 2 * pb->cap : 64;
-        if (cap > DISC_MAX_POINTS)
-            cap = DISC_MAX_POINTS;
-        double *v = realloc(pb->v, cap * pb->dims * sizeof *v);
-        if (!v)
-            return -1;
-        pb->v = v;
-        pb->cap = cap;
-    }
-    memcpy(pb->v + pb->n * pb->dims, x, pb->dims * sizeof *x);
-    pb->n++;
-    return 0;
-}
-
-static int is_blank(char c)
-{
-    return c == ' ' || c == '\t' || c == '\r' || c == '\n';
-}
-
-/* Parses one line into x[0 .. *count).  Returns 0, or CLI_EXIT_FAIL after
- * printing an error naming the line and field. */
-static int parse_line(char *line, size_t lineno, double *x, uint32_t *count)
-{
-    uint32_t k = 0;
-    char *p = line;
-    for (;;) {
-        char *field = p;
-        while (*p != ',' && *p != '\0')
-            p++;
-        char sep = *p;
-        *p = '\0';
-        /* Trim the field for parsing and for quoting it in messages. */
-        while (is_blank(*field))
-            field++;
-        char *end = field + strlen(field);
-        while (end > field && is_blank(end[-1]))
-            *--end = '\0';
-        if (k == DISC_MAX_DIMS)
-            return cli_error("discrepancy: line %zu: more than %u coordinates "
-                             "(the limit)", lineno, DISC_MAX_DIMS);
-        if (*field == '\0')
-            return cli_error("discrepancy: line %zu: coordinate %u is empty",
-                             lineno, k + 1);
-        char *stop = NULL;
-        errno = 0;
-        double v = strtod(field, &stop);
-        if (stop == field || *stop != '\0')
-            return cli_error("discrepancy: line %zu: coordinate %u: '%.40s' "
-                             "is not a number", lineno, k + 1, field);
-        if (!isfinite(v))
-            return cli_error("discrepancy: line %zu: coordinate %u: '%.40s' "
-                             "is not finite", lineno, k + 1, field);
-        if (!(v >= 0.0 && v <= 1.0))
-            return cli_error("discrepancy: line %zu: coordinate %.40s outside "
-                             "[0,1]", lineno, field);
-        x[k++] = v;
-        if (sep == '\0')
-            break;
-        p++;
-    }
-    *count = k;
-    return 0;
-}
-
-/* Reads every point of f into pb.  Returns 0 or CLI_EXIT_FAIL (printed). */
-static int read_points(FILE *f, const char *name, point_buf *pb)
-{
-    char line[DISC_MAX_LINE_BYTES + 2];
-    double x[DISC_MAX_DIMS];
-    size_t lineno = 0;
-
-    while (fgets(line, sizeof line, f) != NULL) {
-        lineno++;
-        size_t len = strlen(line);
-        /* A full buffer without its newline means more of the line is
-         * still unread (or the file ends past the limit). */
-        if (len == sizeof line - 1 && line[len - 1] != '\n')
-            return cli_error("discrepancy: line %zu: longer than %u bytes",
-                             lineno, DISC_MAX_LINE_BYTES);
-        size_t lead = strspn(line, " \t\r\n");
-        if (line[lead] == '\0' || line[lead] == '#')
-            continue;
-        uint32_t count = 0;
-        if (parse_line(line, lineno, x, &count) != 0)
-            return CLI_EXIT_FAIL;
-        if (pb->dims == 0)
-            pb->dims = count;
-        else if (count != pb->dims)
-            return cli_error("discrepancy: line %zu: %u coordinate%s, "
-                             "expected %u", lineno, count,
-                             count == 1 ? "" : "s", pb->dims);
-        if (pb->n == DISC_MAX_POINTS)
-            return cli_error("discrepancy: more than %u points (the limit that "
-                             "keeps the O(n^2) work bounded)", DISC_MAX_POINTS);
-        if (push_point(pb, x) != 0)
-            return cli_error("discrepancy: out of memory at line %zu", lineno);
-    }
+    char buf[1 << 16];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        if (cli_csv_feed(r, buf, n) != 0)
+            return cli_error("discrepancy: %s", r->why);
     if (ferror(f))
-        return cli_error("discrepancy: reading %s: %s", name, strerror(errno));
-    if (pb->n == 0)
-        return cli_error("discrepancy: %s holds no points", name);
+        return cli_error("discrepancy: reading %s: %s", r->name, strerror(errno));
+    if (cli_csv_finish(r) != 0)
+        return cli_error("discrepancy: %s", r->why);
     return 0;
 }
 
-static int compute(const point_buf *pb, int star, qmc_disc_method method,
-                   double *value)
+/* *exact is 0 only for a star discrepancy that is a lower bound. */
+static int compute(const cli_csv_reader *pb, int star, qmc_disc_method method,
+                   double *value, int *exact)
 {
+    *exact = 1;
     if (!star) {
         int err = qmc_disc_compute(pb->v, pb->n, pb->dims, method, value);
         return err ? cli_error("discrepancy: %s", qmc_strerror(err)) : 0;
@@ -170,12 +80,11 @@ static int compute(const point_buf *pb, int star, qmc_disc_method method,
     double *work = len ? malloc(len * sizeof *work) : NULL;
     if (!work)
         return cli_error("discrepancy: out of memory for the star workspace");
-    int exact = 0;
-    int err = qmc_star_compute(pb->v, pb->n, pb->dims, 0, work, value, &exact);
+    int err = qmc_star_compute(pb->v, pb->n, pb->dims, 0, work, value, exact);
     free(work);
     if (err)
         return cli_error("discrepancy: %s", qmc_strerror(err));
-    if (!exact)
+    if (!*exact)
         fprintf(stderr, "qmc: discrepancy: star: lower bound (%u dimensions, "
                 "too many critical boxes to check all)\n", pb->dims);
     return 0;
@@ -186,10 +95,12 @@ int cli_cmd_discrepancy(int argc, char **argv)
     static const struct option longopts[] = {
         {"method", required_argument, 0, 0},
         {"in", required_argument, 0, 0},
+        {"json", no_argument, 0, 0},
         {"help", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
     const char *method_name = NULL, *in = NULL;
+    int json = 0;
     int first = 1, more;
     const char *name, *arg;
     while ((more = cli_next_option("discrepancy", argc, argv, longopts, &first, &name, &arg)) > 0) {
@@ -201,6 +112,8 @@ int cli_cmd_discrepancy(int argc, char **argv)
             method_name = arg;
         if (strcmp(name, "in") == 0)
             in = arg;
+        if (strcmp(name, "json") == 0)
+            json = 1;
     }
     if (more < 0)
         return CLI_EXIT_FAIL;
@@ -222,17 +135,39 @@ int cli_cmd_discrepancy(int argc, char **argv)
                              strerror(errno));
         source = in;
     }
-    point_buf pb = {0};
+    cli_csv_reader pb;
     double value = 0.0;
-    int rc = read_points(f, source, &pb);
+    int exact = 1;
+    int rc = 0;
+    if (cli_csv_init(&pb, source, DISC_MAX_POINTS, DISC_MAX_DIMS, DISC_MAX_LINE_BYTES) != 0)
+        rc = cli_error("discrepancy: %s", pb.why);
+    else
+        rc = read_points(f, &pb);
     if (f != stdin)
         fclose(f);
     if (rc == 0)
-        rc = compute(&pb, star, method, &value);
-    free(pb.v);
+        rc = compute(&pb, star, method, &value, &exact);
+    size_t n_points = pb.n; /* for --json, before the reader lets go */
+    uint32_t dims = pb.dims;
+    cli_csv_close(&pb);
     if (rc != 0)
         return rc;
 
+    if (json) {
+        /* l2-star and star are the discrepancy itself; cd, wd and md are
+         * squared, as scipy returns them. */
+        putchar('{');
+        cli_json_str(stdout, "method", method_name, 1);
+        cli_json_num(stdout, "value", value, 1);
+        cli_json_bool(stdout, "squared", !star && method != QMC_DISC_L2_STAR, 1);
+        cli_json_bool(stdout, "exact", exact, 1);
+        cli_json_u64(stdout, "points", n_points, 1);
+        cli_json_u64(stdout, "dims", dims, 0);
+        fputs("}\n", stdout);
+        if (ferror(stdout) || fflush(stdout) != 0)
+            return cli_error("discrepancy: writing the result: %s", strerror(errno));
+        return CLI_EXIT_OK;
+    }
     char out[40];
     int len = snprintf(out, sizeof out, "%.17g\n", value);
     if (cli_write_all(stdout, out, (size_t)len, "the result") != 0 ||

@@ -3,9 +3,10 @@
  * the result a single run would print (the same numbers, bit for bit;
  * seconds are the parts' sum).
  *
- * Every part must describe the same job (same arguments and fingerprint),
- * and together the parts must hold every block exactly once; anything else
- * is an error naming the file and the block.
+ * Every part must be intact (its SHA-256 digest matches, every field is
+ * valid: part_read.c), describe the same job (same arguments and
+ * fingerprint), and together the parts must hold every block exactly once;
+ * anything else is an error naming the file and the block.
  */
 #include <errno.h>
 #include <stdlib.h>
@@ -13,167 +14,115 @@
 
 #include "cli.h"
 #include "integrate.h"
-
-enum { LINE_MAX_BYTES = 1 << 16 };
+#include "part_read.h"
 
 typedef struct merge_state {
     char *args[CLI_MAX_ARGS + 1];
     int n_args;
     unsigned long long fingerprint, blocks;
-    int have_header;
     double seconds;
     qmc_sampling_sums *sums;
     unsigned char *seen;
     const char **seen_in;
 } merge_state;
 
-static char *decode_word(const char *w)
+/* One part being read: what the reader hands on goes into the state. */
+typedef struct part_ctx {
+    merge_state *m;
+    cli_part_reader *r;
+    const char *path;
+    int first_file;
+    int n_args;
+} part_ctx;
+
+static int on_part_item(void *ctx, const cli_part_item *it)
 {
-    size_t n = strlen(w);
-    char *out = malloc(n + 1), *o = out;
-    if (!out)
-        return NULL;
-    for (; *w; w++) {
-        unsigned v;
-        if (*w == '%' && sscanf(w + 1, "%2X", &v) == 1) {
-            *o++ = (char)v;
-            w += 2;
-        } else {
-            *o++ = *w;
+    part_ctx *pc = ctx;
+    merge_state *m = pc->m;
+    cli_part_reader *r = pc->r;
+    switch (it->event) {
+    case CLI_PART_HEADER:
+        if (pc->first_file) {
+            m->blocks = r->blocks;
+            m->fingerprint = r->fingerprint;
+            m->sums = calloc(r->blocks, sizeof *m->sums);
+            m->seen = calloc(r->blocks, 1);
+            m->seen_in = calloc(r->blocks, sizeof *m->seen_in);
+            if (!m->sums || !m->seen || !m->seen_in)
+                return cli_part_refuse(r, "out of memory for %llu blocks",
+                                       (unsigned long long)r->blocks);
+        } else if (r->fingerprint != m->fingerprint) {
+            return cli_part_refuse(r, "it is a part of a different job (fingerprint %016llx; "
+                                   "the first part's is %016llx)",
+                                   (unsigned long long)r->fingerprint, m->fingerprint);
+        } else if (r->blocks != m->blocks) {
+            return cli_part_refuse(r, "it is a part of a different job (%llu blocks; the "
+                                   "first part's job has %llu)",
+                                   (unsigned long long)r->blocks, m->blocks);
         }
+        m->seconds += r->seconds;
+        return 0;
+    case CLI_PART_ARG:
+        if (pc->first_file) {
+            if (pc->n_args >= CLI_MAX_ARGS)
+                return cli_part_refuse(r, "more than %d arguments", CLI_MAX_ARGS);
+            if (!(m->args[1 + pc->n_args] = strdup(it->word)))
+                return cli_part_refuse(r, "out of memory");
+            m->n_args = ++pc->n_args;
+        } else if (pc->n_args >= m->n_args || strcmp(it->word, m->args[1 + pc->n_args]) != 0) {
+            return cli_part_refuse(r, "line %lu: argument '%.60s' differs from the first "
+                                   "part's: not the same job", r->lineno, it->word);
+        } else {
+            pc->n_args++;
+        }
+        return 0;
+    case CLI_PART_SUMS: {
+        const qmc_sampling_sums *s = &it->sums;
+        if (!pc->first_file && pc->n_args != m->n_args)
+            return cli_part_refuse(r, "it has fewer arguments than the first part: not the "
+                                   "same job");
+        if (m->seen[s->block])
+            return cli_part_refuse(r, "block %llu is in both %s and %s",
+                                   (unsigned long long)s->block, m->seen_in[s->block],
+                                   pc->path);
+        m->sums[s->block] = *s;
+        m->seen[s->block] = 1;
+        m->seen_in[s->block] = pc->path;
+        return 0;
     }
-    *o = '\0';
-    return out;
+    case CLI_PART_DONE:
+        return 0;
+    }
+    return 0;
 }
 
-static int parse_sums(const char *line, qmc_sampling_sums *s)
-{
-    char *p = (char *)line;
-    memset(s, 0, sizeof *s);
-    unsigned long long v[3];
-    for (int i = 0; i < 3; i++) {
-        v[i] = strtoull(p, &p, 10);
-        if (*p != ' ')
-            return -1;
-    }
-    s->block = v[0], s->count = v[1], s->nonfinite = v[2];
-    double *d[11] = {&s->f[0], &s->f[1], &s->absf[0], &s->absf[1], &s->g[0], &s->g[1],
-                     &s->mean_f, &s->mean_g, &s->m2_f, &s->m2_g, &s->c_fg};
-    for (int i = 0; i < 11; i++) {
-        char *end;
-        *d[i] = strtod(p, &end);
-        if (end == p)
-            return -1;
-        p = end;
-    }
-    long top = strtol(p, &p, 10);
-    if (top < 0 || top > QMC_SAMPLING_TOP)
-        return -1;
-    for (long k = 0; k < top; k++) {
-        char *end;
-        s->top[k] = strtod(p, &end);
-        if (end == p)
-            return -1;
-        p = end;
-    }
-    while (*p == ' ' || *p == '\n')
-        p++;
-    return *p == '\0' ? 0 : -1;
-}
-
-/* Reads one part file; first call takes the job's arguments. */
+/* Reads one part file; the first file sets the job.  Its records reach
+ * the state as they are read, and a part whose digest fails at the end
+ * fails the whole merge, so nothing of it is ever used. */
 static int read_part(const char *path, merge_state *m, int first_file)
 {
     FILE *f = fopen(path, "r");
     if (!f)
         return cli_error("merge: cannot open '%s': %s", path, strerror(errno));
-    char *line = malloc(LINE_MAX_BYTES);
-    int rc = line ? 0 : cli_error("out of memory");
-    unsigned long lineno = 0;
-    int n_args = 0, ended = 0, version_ok = 0;
-    unsigned long long fp = 0, blocks = 0;
-    while (rc == 0 && fgets(line, LINE_MAX_BYTES, f)) {
-        lineno++;
-        size_t len = strlen(line);
-        if (len && line[len - 1] == '\n')
-            line[--len] = '\0';
-        else if (!feof(f))
-            rc = cli_error("merge: %s:%lu: line too long", path, lineno);
-        else /* every record ends with a newline: the file was cut short */
-            rc = cli_error("merge: %s is truncated (line %lu is incomplete)", path, lineno);
-        if (rc)
-            break;
-        if (lineno == 1) {
-            version_ok = strcmp(line, "qmc-partial 1") == 0;
-            if (!version_ok)
-                rc = cli_error("merge: %s is not a qmc partial result (first line '%.40s')",
-                               path, line);
-        } else if (strncmp(line, "fingerprint ", 12) == 0) {
-            fp = strtoull(line + 12, NULL, 16);
-        } else if (strncmp(line, "blocks ", 7) == 0) {
-            blocks = strtoull(line + 7, NULL, 10);
-        } else if (strncmp(line, "seconds ", 8) == 0) {
-            m->seconds += strtod(line + 8, NULL);
-        } else if (strncmp(line, "arg ", 4) == 0) {
-            char *w = decode_word(line + 4);
-            if (!w)
-                rc = cli_error("out of memory");
-            else if (first_file && n_args < CLI_MAX_ARGS)
-                m->args[1 + n_args++] = w;
-            else if (!first_file && (n_args >= m->n_args || strcmp(w, m->args[1 + n_args++]) != 0))
-                rc = cli_error("merge: %s:%lu: argument '%s' differs from the first part's: "
-                               "not the same job", path, lineno, w);
-            if (!first_file || rc)
-                free(w);
-        } else if (strncmp(line, "sums ", 5) == 0) {
-            if (!m->sums) {
-                rc = cli_error("merge: %s:%lu: block sums before the job's arguments", path,
-                               lineno);
-                break;
-            }
-            qmc_sampling_sums s;
-            if (parse_sums(line + 5, &s) != 0)
-                rc = cli_error("merge: %s:%lu: malformed block sums", path, lineno);
-            else if (s.block >= m->blocks)
-                rc = cli_error("merge: %s:%lu: block %llu past the job's %llu blocks", path,
-                               lineno, (unsigned long long)s.block, m->blocks);
-            else if (m->seen[s.block])
-                rc = cli_error("merge: block %llu is in both %s and %s",
-                               (unsigned long long)s.block, m->seen_in[s.block], path);
-            else {
-                m->sums[s.block] = s;
-                m->seen[s.block] = 1;
-                m->seen_in[s.block] = path;
-            }
-        } else if (strcmp(line, "end") == 0) {
-            ended = 1;
-        } else {
-            rc = cli_error("merge: %s:%lu: unknown record '%.40s'", path, lineno, line);
-        }
-        /* The header ends with "seconds": set up the block table once. */
-        if (rc == 0 && first_file && !m->sums && blocks && strncmp(line, "seconds ", 8) == 0) {
-            m->blocks = blocks;
-            m->fingerprint = fp;
-            m->sums = calloc(blocks, sizeof *m->sums);
-            m->seen = calloc(blocks, 1);
-            m->seen_in = calloc(blocks, sizeof *m->seen_in);
-            if (!m->sums || !m->seen || !m->seen_in)
-                rc = cli_error("out of memory for %llu blocks", blocks);
-        }
-        if (rc == 0 && !first_file && strncmp(line, "seconds ", 8) == 0 &&
-            (fp != m->fingerprint || blocks != m->blocks))
-            rc = cli_error("merge: %s is a part of a different job (fingerprint %016llx, "
-                           "expected %016llx)", path, fp, m->fingerprint);
+    cli_part_reader *r = malloc(sizeof *r);
+    part_ctx pc = {m, r, path, first_file, 0};
+    int rc = 0;
+    if (!r || cli_part_init(r, on_part_item, &pc) != 0) {
+        rc = cli_error("merge: out of memory");
+    } else {
+        char buf[1 << 16];
+        size_t n;
+        int bad = 0;
+        while (!bad && (n = fread(buf, 1, sizeof buf, f)) > 0)
+            bad = cli_part_feed(r, buf, n) != 0;
+        if (!bad && ferror(f))
+            rc = cli_error("merge: reading %s: %s", path, strerror(errno));
+        else if (bad || cli_part_finish(r) != 0)
+            rc = cli_error("merge: %s: %s", path, r->why);
     }
-    if (rc == 0 && ferror(f))
-        rc = cli_error("merge: reading %s: %s", path, strerror(errno));
-    if (rc == 0 && !ended)
-        rc = cli_error("merge: %s is truncated (no end record)", path);
-    if (rc == 0 && first_file)
-        m->n_args = n_args;
-    if (rc == 0 && !first_file && n_args != m->n_args)
-        rc = cli_error("merge: %s has different arguments: not the same job", path);
-    free(line);
+    if (r)
+        cli_part_close(r);
+    free(r);
     fclose(f);
     return rc;
 }
@@ -193,7 +142,10 @@ int cli_cmd_merge(int argc, char **argv)
                   "Combines the partial results that `qmc integrate --part K/P` printed\n"
                   "into the result of the whole job: the same numbers as one run, bit for\n"
                   "bit (seconds are the sum of the parts').  Every part must come from the\n"
-                  "same job, and together they must hold every block exactly once.\n",
+                  "same job, and together they must hold every block exactly once.\n"
+                  "Each part ends with a SHA-256 digest of its content: an edited or\n"
+                  "damaged part is refused (the digest catches accidents and edits, not\n"
+                  "forgery: whoever edits a part can write a new digest).\n",
                   stdout);
             return CLI_EXIT_OK;
         } else if (strncmp(argv[i], "--", 2) == 0) {
@@ -238,8 +190,10 @@ int cli_cmd_merge(int argc, char **argv)
     if (rc == 0 && (qmc_sampling_fingerprint(job) != m.fingerprint ||
                     qmc_sampling_blocks(job) != m.blocks))
         rc = cli_error("merge: the parts were made by a different qmc (job fingerprint "
-                       "%016llx, this build makes %016llx)", m.fingerprint,
-                       (unsigned long long)qmc_sampling_fingerprint(job));
+                       "%016llx over %llu blocks; this build makes %016llx over %llu)",
+                       m.fingerprint, m.blocks,
+                       (unsigned long long)qmc_sampling_fingerprint(job),
+                       (unsigned long long)qmc_sampling_blocks(job));
     cli_report rep;
     memset(&rep, 0, sizeof rep);
     if (rc == 0) {

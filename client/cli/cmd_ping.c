@@ -9,20 +9,49 @@
 #include <string.h>
 
 #include "cli.h"
+#include "json.h"
 
 static const char ping_help[] =
-    "usage: qmc ping --connect ENDPOINT [--count N]\n"
+    "usage: qmc ping --connect ENDPOINT [--count N] [--json]\n"
     "\n"
     "Connects to the qmcd daemon, prints its identity (server, engine, Sobol\n"
     "table fingerprint and whether it matches this qmc's) and its limits, then\n"
     "sends N PINGs (default 1) and prints each round-trip time.\n"
     "\n"
-    "  --count N         pings to send, 1 .. 1000\n";
+    "  --count N         pings to send, 1 .. 1000\n"
+    "  --json            one JSON object instead: server, engine, sobol_table\n"
+    "                    (hex), sobol_table_matches, max_frame_bytes,\n"
+    "                    max_inflight, max_points, rtt_ms (one per PING)\n";
+
+/* The same facts as the text, for scripts: times in milliseconds. */
+static int print_json(const qmc_client *c, const double *rtt, size_t count)
+{
+    uint64_t theirs = qmc_client_sobol_table_hash(c);
+    char hex[17];
+    snprintf(hex, sizeof hex, "%016llx", (unsigned long long)theirs);
+    double ms[1000];
+    for (size_t i = 0; i < count; i++)
+        ms[i] = 1e3 * rtt[i];
+    putchar('{');
+    cli_json_str(stdout, "server", qmc_client_server_name(c), 1);
+    cli_json_str(stdout, "engine", qmc_client_engine(c), 1);
+    cli_json_str(stdout, "sobol_table", hex, 1);
+    cli_json_bool(stdout, "sobol_table_matches", theirs == qmc_sobol_table_hash(), 1);
+    cli_json_u64(stdout, "max_frame_bytes", qmc_client_max_frame(c), 1);
+    cli_json_u64(stdout, "max_inflight", qmc_client_max_inflight(c), 1);
+    cli_json_u64(stdout, "max_points", qmc_client_max_points(c), 1);
+    cli_json_num_array(stdout, "rtt_ms", ms, count, 0);
+    fputs("}\n", stdout);
+    if (ferror(stdout) || fflush(stdout) != 0)
+        return cli_error("ping: writing the output failed");
+    return 0;
+}
 
 int cli_cmd_ping(int argc, char **argv)
 {
     static const struct option longopts[] = {
         {"count", required_argument, 0, 0},
+        {"json", no_argument, 0, 0},
         {"help", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
@@ -30,6 +59,7 @@ int cli_cmd_ping(int argc, char **argv)
     if (cli_remote_take(&argc, argv, &endpoint))
         return CLI_EXIT_FAIL;
     uint64_t count = 1;
+    int json = 0;
     int first = 1, more;
     const char *name, *arg;
     while ((more = cli_next_option("ping", argc, argv, longopts, &first, &name, &arg)) > 0) {
@@ -40,6 +70,8 @@ int cli_cmd_ping(int argc, char **argv)
         }
         if (strcmp(name, "count") == 0 && cli_parse_u64("--count", arg, 1, 1000, &count))
             return CLI_EXIT_FAIL;
+        if (strcmp(name, "json") == 0)
+            json = 1;
     }
     if (more < 0)
         return CLI_EXIT_FAIL;
@@ -57,7 +89,9 @@ int cli_cmd_ping(int argc, char **argv)
         if (err)
             rc = cli_remote_fail(c, err, "ping: ");
     }
-    if (rc == 0) {
+    if (rc == 0 && json) {
+        rc = print_json(c, rtt, (size_t)count);
+    } else if (rc == 0) {
         uint64_t ours = qmc_sobol_table_hash(), theirs = qmc_client_sobol_table_hash(c);
         printf("server     %s\n", qmc_client_server_name(c));
         printf("engine     %s\n", qmc_client_engine(c));

@@ -4,12 +4,15 @@
  *
  * Everything that can be checked is checked before the first byte goes
  * out, so an error never leaves partial output; with --out the file is
- * written beside its target and renamed into place only when complete.
+ * written as outfile.h says (beside its target, fsynced, renamed into place
+ * only when complete; devices and FIFOs written in place; read-only and
+ * other users' files refused).
  *
  * With --connect the points come from the daemon as a stream of chunks and
- * are written as they arrive, in the same bytes: the daemon checks the
- * range (its message becomes our error line) before its first chunk.  Only
- * a connection lost halfway can leave part of a stream on stdout.
+ * are written as they arrive, in the same bytes, in as many requests as the
+ * daemon's max-points needs (the client library splits them).  Only a
+ * connection lost halfway can leave part of a stream on stdout, and the
+ * error line then says how many points got through.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -18,6 +21,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "outfile.h"
 
 static const char points_help[] =
     "usage: qmc points --seq KIND [--dims D] [--count N] [--start I]\n"
@@ -32,7 +36,10 @@ static const char points_help[] =
     "  --count N         number of points (default 16)\n"
     "  --start I         first index (default 0)\n"
     "  --format F        csv (default) | f64 | f32 | u32\n"
-    "  --out FILE        write to FILE (atomically) instead of stdout\n"
+    "  --out FILE        write to FILE instead of stdout: a regular file is\n"
+    "                    replaced atomically (keeping its mode) and only when\n"
+    "                    complete; a device or FIFO is written in place; a\n"
+    "                    read-only file or another user's is refused\n"
     "\n";
 
 enum { BLOCK_BYTES = 1 << 20 };
@@ -147,33 +154,17 @@ static int emit(const points_src *src, uint64_t start, uint64_t count,
     return rc;
 }
 
-/* Writes through a temporary file in FILE's directory, renamed on success. */
+/* To --out FILE by outfile.h's rules: nothing replaced unless complete. */
 static int emit_to_file(const points_src *src, uint64_t start, uint64_t count,
                         int csv, qmc_format fmt, const char *path)
 {
-    size_t len = strlen(path);
-    char *tmp = malloc(len + 16);
-    if (!tmp)
-        return cli_error("out of memory");
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, ".tmp.XXXXXX", 12);
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        int rc = cli_error("--out: cannot create a file beside '%s': %s", path, strerror(errno));
-        free(tmp);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
-    int rc = f ? emit(src, start, count, csv, fmt, f) : cli_error("--out: %s", strerror(errno));
-    if (f && fclose(f) != 0 && rc == 0)
-        rc = cli_error("writing '%s': %s", path, strerror(errno));
-    if (!f)
-        close(fd);
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_error("--out: cannot rename into '%s': %s", path, strerror(errno));
-    if (rc != 0)
-        unlink(tmp);
-    free(tmp);
+    cli_outfile o;
+    if (cli_outfile_open(&o, path, "--out") != 0)
+        return CLI_EXIT_FAIL;
+    int rc = emit(src, start, count, csv, fmt, o.f);
+    if (rc == 0)
+        return cli_outfile_commit(&o);
+    cli_outfile_abort(&o);
     return rc;
 }
 
@@ -189,11 +180,22 @@ static int emit_out(const points_src *src, uint64_t start, uint64_t count, int c
     return rc;
 }
 
-/* Remote mode: the spec is checked here as in-process (same messages); the
- * range and the daemon's limits are checked by the daemon. */
+/* Remote mode: the spec and the range are checked here as in-process (the
+ * same messages, and before anything is written: the client library splits
+ * a count past the daemon's max-points into several requests, and a range
+ * error found by a later one would come after the first one's output). */
 static int points_remote(const char *endpoint, const qmc_seq_spec *spec, uint64_t start,
                          uint64_t count, int csv, qmc_format fmt, const char *out)
 {
+    qmc_seq *seq = NULL;
+    char why[256];
+    int err = qmc_seq_new(spec, &seq);
+    if (err)
+        return cli_error("points: %s", qmc_strerror(err));
+    err = qmc_seq_range_check(seq, start, count, why, sizeof why);
+    qmc_seq_free(seq);
+    if (err)
+        return cli_error("%s", why);
     qmc_client *c = NULL;
     if (cli_remote_connect(endpoint, &c))
         return CLI_EXIT_FAIL;

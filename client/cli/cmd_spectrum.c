@@ -4,9 +4,11 @@
  * grayscale PNG of the 2D periodogram.
  *
  * libqmc does the arithmetic (qmc_spectrum_accumulate / _finish); this file
- * makes the point sets, scales the image and writes the files.  Both files
- * are built in memory and written through a temporary file renamed into
- * place, so an error never leaves a partial file.  With --connect the
+ * makes the point sets, scales the image and writes the files.  Both
+ * targets are checked (outfile.h) before any work, both files are built in
+ * memory, written beside their targets and fsynced, and only then renamed
+ * into place together: an error, a bad second target or a signal leaves
+ * neither file changed.  With --connect the
  * points come from the daemon (the same bits) and the arithmetic stays here.
  */
 #include <errno.h>
@@ -17,6 +19,8 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "json.h"
+#include "outfile.h"
 #include "png.h"
 #include "qmc/quality.h"
 
@@ -34,7 +38,8 @@
 
 static const char spectrum_help[] =
     "usage: qmc spectrum --seq KIND [--scramble S] [--seed X] [--dims D]\n"
-    "                    --count N [--reps R] [--freq K] --png FILE --csv FILE\n"
+    "                    --count N [--reps R] [--freq K] [--png FILE] [--csv FILE]\n"
+    "                    [--json]\n"
     "\n"
     "Periodogram P(k) = |sum_j exp(-2 pi i k.x_j)|^2 / N of the first two\n"
     "coordinates of points 0 .. N-1, for integer k in [-K, K]^2, averaged\n"
@@ -52,45 +57,12 @@ static const char spectrum_help[] =
     "              log10 scale from 1e-3 (black) to the largest non-DC\n"
     "              power (white); the DC pixel is white; each frequency is a\n"
     "              square of pixels so the image is at least 256 wide\n"
+    "  --json      one JSON object on stdout: seq, scramble, seed, dims, count,\n"
+    "              reps, freq, csv and png (the files written, or null) and\n"
+    "              radial_power, the CSV's power column (index = frequency)\n"
+    "At least one of --png, --csv and --json is required.\n"
     "\n"
     "Work limit: N x R x (2K+1)^2 <= 4e9.\n";
-
-/* Writes buf to path through a temporary file in the same directory. */
-static int write_file(const char *path, const void *buf, size_t bytes,
-                      const char *what)
-{
-    size_t len = strlen(path);
-    char *tmp = malloc(len + 16);
-    if (!tmp)
-        return cli_error("spectrum: out of memory");
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, ".tmp.XXXXXX", 12);
-    int rc = 0;
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        rc = cli_error("spectrum: --%s: cannot create a file beside '%s': %s",
-                       what, path, strerror(errno));
-        free(tmp);
-        return rc;
-    }
-    FILE *f = fdopen(fd, "wb");
-    if (!f) {
-        rc = cli_error("spectrum: --%s: %s", what, strerror(errno));
-        close(fd);
-    } else {
-        if (cli_write_all(f, buf, bytes, what) != 0)
-            rc = CLI_EXIT_FAIL;
-        if (fclose(f) != 0 && rc == 0)
-            rc = cli_error("spectrum: writing '%s': %s", path, strerror(errno));
-    }
-    if (rc == 0 && rename(tmp, path) != 0)
-        rc = cli_error("spectrum: --%s: cannot rename into '%s': %s", what,
-                       path, strerror(errno));
-    if (rc != 0)
-        unlink(tmp);
-    free(tmp);
-    return rc;
-}
 
 /* Points 0 .. count-1 of spec as f64, from the daemon when c is set. */
 static int fetch(qmc_client *c, const qmc_seq_spec *spec, uint64_t count, double *pts)
@@ -176,7 +148,7 @@ static void render(const double *power, uint32_t kmax, uint32_t scale,
     }
 }
 
-static int write_csv(const char *path, const double *radial, uint32_t kmax)
+static int write_csv(cli_outfile *out, const double *radial, uint32_t kmax)
 {
     size_t cap = 32 + (size_t)(kmax + 1) * 40, len = 0;
     char *buf = malloc(cap);
@@ -186,12 +158,12 @@ static int write_csv(const char *path, const double *radial, uint32_t kmax)
     for (uint32_t b = 0; b <= kmax; b++)
         len += (size_t)snprintf(buf + len, cap - len, "%u,%.17g\n", b,
                                 radial[b]);
-    int rc = write_file(path, buf, len, "csv");
+    int rc = cli_write_all(out->f, buf, len, "--csv") ? CLI_EXIT_FAIL : 0;
     free(buf);
     return rc;
 }
 
-static int write_png(const char *path, const double *power, uint32_t kmax)
+static int write_png(cli_outfile *out, const double *power, uint32_t kmax)
 {
     uint32_t side = (uint32_t)qmc_spectrum_side(kmax);
     uint32_t scale = (SPEC_MIN_IMAGE_SIDE + side - 1) / side;
@@ -206,13 +178,43 @@ static int write_png(const char *path, const double *power, uint32_t kmax)
     } else {
         render(power, kmax, scale, pixels);
         size_t n = cli_png_encode_gray8(pixels, width, width, png, bytes);
-        rc = n ? write_file(path, png, n, "png")
+        rc = n ? (cli_write_all(out->f, png, n, "--png") ? CLI_EXIT_FAIL : 0)
                : cli_error("spectrum: cannot encode a %ux%u image", width,
                            width);
     }
     free(pixels);
     free(png);
     return rc;
+}
+
+/* A path as a JSON string member, or null when the file was not asked for. */
+static void json_path(const char *key, const char *path)
+{
+    if (path)
+        cli_json_str(stdout, key, path, 1);
+    else
+        printf("\"%s\":null,", key);
+}
+
+static int print_json(const qmc_seq_spec *spec, uint64_t count, uint32_t reps,
+                      uint32_t kmax, const double *radial, const char *csv_path,
+                      const char *png_path)
+{
+    putchar('{');
+    cli_json_str(stdout, "seq", qmc_seq_kind_name(spec->kind), 1);
+    cli_json_str(stdout, "scramble", qmc_scramble_name(spec->scramble), 1);
+    cli_json_u64(stdout, "seed", spec->seed, 1);
+    cli_json_u64(stdout, "dims", spec->dims, 1);
+    cli_json_u64(stdout, "count", count, 1);
+    cli_json_u64(stdout, "reps", reps, 1);
+    cli_json_u64(stdout, "freq", kmax, 1);
+    json_path("csv", csv_path);
+    json_path("png", png_path);
+    cli_json_num_array(stdout, "radial_power", radial, (size_t)kmax + 1, 0);
+    fputs("}\n", stdout);
+    if (ferror(stdout) || fflush(stdout) != 0)
+        return cli_error("spectrum: writing the JSON result: %s", strerror(errno));
+    return 0;
 }
 
 int cli_cmd_spectrum(int argc, char **argv)
@@ -224,6 +226,7 @@ int cli_cmd_spectrum(int argc, char **argv)
         {"count", required_argument, 0, 0}, {"reps", required_argument, 0, 0},
         {"freq", required_argument, 0, 0},  {"png", required_argument, 0, 0},
         {"csv", required_argument, 0, 0},   {"help", no_argument, 0, 0},
+        {"json", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
     const char *endpoint;
@@ -233,6 +236,7 @@ int cli_cmd_spectrum(int argc, char **argv)
     cli_seq_opts_init(&so);
     uint64_t count = 0, reps = 1, freq = 32;
     const char *png_path = NULL, *csv_path = NULL;
+    int json = 0;
     int first = 1, more;
     const char *name, *arg;
     while ((more = cli_next_option("spectrum", argc, argv, longopts, &first, &name, &arg)) > 0) {
@@ -260,13 +264,16 @@ int cli_cmd_spectrum(int argc, char **argv)
             png_path = arg;
         if (strcmp(name, "csv") == 0)
             csv_path = arg;
+        if (strcmp(name, "json") == 0)
+            json = 1;
     }
     if (more < 0)
         return CLI_EXIT_FAIL;
     if (count == 0)
         return cli_error("spectrum: --count N is required");
-    if (!png_path || !csv_path)
-        return cli_error("spectrum: --png FILE and --csv FILE are required");
+    if (!png_path && !csv_path && !json)
+        return cli_error("spectrum: nothing to write: give --png FILE, --csv FILE "
+                         "or --json");
     double side = 2.0 * (double)freq + 1.0;
     if ((double)count * (double)reps * side * side > SPEC_MAX_WORK)
         return cli_error("spectrum: count x reps x (2 freq + 1)^2 = %.3g "
@@ -284,6 +291,28 @@ int cli_cmd_spectrum(int argc, char **argv)
                          (unsigned long long)(count * so.spec.dims),
                          SPEC_MAX_VALUES);
 
+    if (png_path && csv_path && cli_outfile_same(png_path, csv_path))
+        return cli_error("spectrum: --png and --csv both name '%s': give each its own "
+                         "file", png_path);
+    /* Both targets checked before any work; see outfile.h. */
+    /* With --json either file may be left out: only those asked for. */
+    cli_outfile outs[2];
+    memset(outs, 0, sizeof outs);
+    outs[0].slot = outs[1].slot = -1;
+    cli_outfile *csv_out = NULL, *png_out = NULL;
+    size_t n_outs = 0;
+    if (csv_path) {
+        if (cli_outfile_open(&outs[n_outs], csv_path, "--csv") != 0)
+            return CLI_EXIT_FAIL;
+        csv_out = &outs[n_outs++];
+    }
+    if (png_path) {
+        if (cli_outfile_open(&outs[n_outs], png_path, "--png") != 0) {
+            cli_outfile_abort(&outs[0]);
+            return CLI_EXIT_FAIL;
+        }
+        png_out = &outs[n_outs++];
+    }
     const uint32_t kmax = (uint32_t)freq;
     size_t cells = qmc_spectrum_side(kmax) * qmc_spectrum_side(kmax);
     double *power = calloc(cells, sizeof *power);
@@ -304,10 +333,19 @@ int cli_cmd_spectrum(int argc, char **argv)
         rc = cli_error("spectrum: %s", qmc_strerror(err));
         goto done;
     }
-    rc = write_csv(csv_path, radial, kmax);
+    if (csv_out)
+        rc = write_csv(csv_out, radial, kmax);
+    if (rc == 0 && png_out)
+        rc = write_png(png_out, power, kmax);
     if (rc == 0)
-        rc = write_png(png_path, power, kmax);
+        rc = cli_outfile_commit_all(outs, n_outs);
+    /* Last, so that stdout names only files that were written. */
+    if (rc == 0 && json)
+        rc = print_json(&so.spec, count, (uint32_t)reps, kmax, radial, csv_path,
+                        png_path);
 done:
+    cli_outfile_abort(&outs[0]);
+    cli_outfile_abort(&outs[1]);
     qmc_client_close(client);
     free(power);
     free(radial);

@@ -4,7 +4,7 @@
  * cmd_integrate.c parses options into a cli_integrate and runs it;
  * integrate_setup.c builds integrands from names or scenes;
  * integrate_output.c prints results (text or JSON) for both commands;
- * partial.c writes and reads --part files.
+ * partial.c writes --part files; part_read.c reads them (format there).
  */
 #ifndef QMC_CLI_INTEGRATE_H
 #define QMC_CLI_INTEGRATE_H

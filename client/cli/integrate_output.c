@@ -10,31 +10,7 @@
 #include <string.h>
 
 #include "integrate.h"
-
-/* A JSON number, or null for NaN and infinities (JSON has neither). */
-static void json_num(FILE *f, const char *key, double v, int comma)
-{
-    if (isfinite(v))
-        fprintf(f, "\"%s\":%.17g", key, v);
-    else
-        fprintf(f, "\"%s\":null", key);
-    if (comma)
-        fputc(',', f);
-}
-
-static void json_str(FILE *f, const char *key, const char *v, int comma)
-{
-    fprintf(f, "\"%s\":\"", key);
-    for (const char *p = v ? v : ""; *p; p++) {
-        if (*p == '"' || *p == '\\')
-            fputc('\\', f);
-        if ((unsigned char)*p >= 0x20)
-            fputc(*p, f);
-    }
-    fputc('"', f);
-    if (comma)
-        fputc(',', f);
-}
+#include "json.h"
 
 /* The integral of |f| to judge errors against: known, else estimated. */
 static double abs_integral(const cli_report *rep)
@@ -52,33 +28,34 @@ static void print_json(FILE *f, const cli_report *rep)
     double ref = p->has_reference ? p->reference : NAN;
     double err = r->estimate - ref, absint = abs_integral(rep);
     fputc('{', f);
-    json_str(f, "integrand", p->label, 1);
-    json_str(f, "method", rep->requested, 1);
-    json_str(f, "method_used", rep->method, 1);
-    json_str(f, "detail", rep->detail, 1);
+    cli_json_str(f, "integrand", p->label, 1);
+    cli_json_str(f, "method", rep->requested, 1);
+    cli_json_str(f, "method_used", rep->method, 1);
+    cli_json_str(f, "detail", rep->detail, 1);
     if (rep->auto_reason[0])
-        json_str(f, "auto_reason", rep->auto_reason, 1);
-    json_num(f, "estimate", r->estimate, 1);
-    json_num(f, "stderr", r->error_kind == QMC_ERROR_STDERR ? r->error : NAN, 1);
-    json_num(f, "error_estimate", r->error_kind == QMC_ERROR_ESTIMATE ? r->error : NAN, 1);
-    json_num(f, "ci_low", r->error_kind == QMC_ERROR_NONE ? NAN : r->ci_low, 1);
-    json_num(f, "ci_high", r->error_kind == QMC_ERROR_NONE ? NAN : r->ci_high, 1);
-    json_num(f, "confidence", r->error_kind == QMC_ERROR_STDERR ? rep->confidence : NAN, 1);
-    json_num(f, "exact", p->reference_exact ? ref : NAN, 1);
+        cli_json_str(f, "auto_reason", rep->auto_reason, 1);
+    cli_json_num(f, "estimate", r->estimate, 1);
+    cli_json_num(f, "stderr", r->error_kind == QMC_ERROR_STDERR ? r->error : NAN, 1);
+    cli_json_num(f, "error_estimate", r->error_kind == QMC_ERROR_ESTIMATE ? r->error : NAN, 1);
+    cli_json_num(f, "ci_low", r->error_kind == QMC_ERROR_NONE ? NAN : r->ci_low, 1);
+    cli_json_num(f, "ci_high", r->error_kind == QMC_ERROR_NONE ? NAN : r->ci_high, 1);
+    cli_json_num(f, "confidence", r->error_kind == QMC_ERROR_STDERR ? rep->confidence : NAN, 1);
+    cli_json_num(f, "exact", p->reference_exact ? ref : NAN, 1);
     if (p->has_reference && !p->reference_exact)
-        json_num(f, "reference", ref, 1);
-    json_num(f, "abs_error", fabs(err), 1);
-    json_num(f, "rel_error", fabs(err) / fabs(ref), 1);
-    json_num(f, "abs_integral", absint, 1);
-    json_num(f, "error_vs_abs_integral", fabs(err) / absint, 1);
-    fprintf(f, "\"n\":%llu,\"evals\":%llu,\"dims\":%u,\"nonfinite\":%llu,",
-            (unsigned long long)r->n, (unsigned long long)r->evals, r->dims,
-            (unsigned long long)r->nonfinite);
+        cli_json_num(f, "reference", ref, 1);
+    cli_json_num(f, "abs_error", fabs(err), 1);
+    cli_json_num(f, "rel_error", fabs(err) / fabs(ref), 1);
+    cli_json_num(f, "abs_integral", absint, 1);
+    cli_json_num(f, "error_vs_abs_integral", fabs(err) / absint, 1);
+    cli_json_u64(f, "n", r->n, 1);
+    cli_json_u64(f, "evals", r->evals, 1);
+    cli_json_u64(f, "dims", r->dims, 1);
+    cli_json_u64(f, "nonfinite", r->nonfinite, 1);
     if (rep->cv.used) {
-        json_num(f, "cv_beta", rep->cv.beta, 1);
-        json_num(f, "cv_variance_ratio", rep->cv.variance_ratio, 1);
+        cli_json_num(f, "cv_beta", rep->cv.beta, 1);
+        cli_json_num(f, "cv_variance_ratio", rep->cv.variance_ratio, 1);
     }
-    json_num(f, "seconds", rep->seconds, 1);
+    cli_json_num(f, "seconds", rep->seconds, 1);
     fputs("\"flags\":[", f);
     int first = 1;
     for (int b = 0; b < 32; b++)

@@ -1,31 +1,48 @@
 /*
- * partial.c - --part files: everything `qmc merge` needs to finish a job
- * bit for bit as a single run would.
- *
- * Format (text, one record per line, documented in README):
- *   qmc-partial 1
- *   fingerprint <16 hex digits>        the job's qmc_sampling_fingerprint
- *   blocks <total blocks of the job>
- *   seconds <wall time of this part>
- *   arg <word>                         the job's integrate arguments, in
- *                                      order; %, space, newline as %25 %20 %0A
- *   sums <block> <count> <nonfinite> <14 + top hex floats>
- *   end
- * Sums are written as C99 hex floats, which read back exactly.
+ * partial.c - writes --part files: everything `qmc merge` needs to finish
+ * a job bit for bit as a single run would.  The format, and its reader,
+ * are in part_read.h; sums are written as C99 hex floats, which read back
+ * exactly, and the file ends with a SHA-256 digest of what came before.
  */
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
 #include "integrate.h"
+#include "part_read.h"
 
-static void put_word(FILE *f, const char *w)
+/* Writes to f and feeds the digest the same bytes. */
+typedef struct hashed_out {
+    FILE *f;
+    crypto_hash_sha256_state sha;
+} hashed_out;
+
+static void put(hashed_out *h, const char *s, size_t n)
+{
+    fwrite(s, 1, n, h->f);
+    crypto_hash_sha256_update(&h->sha, (const unsigned char *)s, n);
+}
+
+static void putf(hashed_out *h, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void putf(hashed_out *h, const char *fmt, ...)
+{
+    char buf[512];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    /* Every format here is one number or a short word: never cut. */
+    put(h, buf, n < 0 ? 0 : (size_t)n < sizeof buf ? (size_t)n : sizeof buf - 1);
+}
+
+static void put_word(hashed_out *h, const char *w)
 {
     for (; *w; w++) {
         if (*w == '%' || *w == ' ' || *w == '\n' || *w == '\r' || *w == '\t')
-            fprintf(f, "%%%02X", (unsigned char)*w);
+            putf(h, "%%%02X", (unsigned char)*w);
         else
-            fputc(*w, f);
+            put(h, w, 1);
     }
 }
 
@@ -33,31 +50,42 @@ int cli_partial_write(FILE *f, const cli_integrate *o, const qmc_sampling_job *j
                       const qmc_sampling_sums *sums, uint64_t first, uint64_t count,
                       double seconds)
 {
-    fprintf(f, "qmc-partial 1\nfingerprint %016llx\nblocks %llu\nseconds %.6f\n",
-            (unsigned long long)qmc_sampling_fingerprint(job),
-            (unsigned long long)qmc_sampling_blocks(job), seconds);
+    if (sodium_init() < 0)
+        return cli_error("integrate: libsodium cannot start"), -1;
+    hashed_out h;
+    h.f = f;
+    crypto_hash_sha256_init(&h.sha);
+    putf(&h, CLI_PART_MAGIC "\nfingerprint %016llx\nblocks %llu\nseconds %.6f\n",
+         (unsigned long long)qmc_sampling_fingerprint(job),
+         (unsigned long long)qmc_sampling_blocks(job), seconds);
     for (int i = 0; i < o->n_job_args; i++) {
-        fputs("arg ", f);
-        put_word(f, o->job_args[i]);
-        fputc('\n', f);
+        put(&h, "arg ", 4);
+        put_word(&h, o->job_args[i]);
+        put(&h, "\n", 1);
     }
     for (uint64_t i = 0; i < count; i++) {
         const qmc_sampling_sums *s = &sums[i];
         if (s->block != first + i)
             return cli_error("integrate: internal error: block %llu out of place",
                              (unsigned long long)(first + i)), -1;
-        fprintf(f, "sums %llu %llu %llu %a %a %a %a %a %a %a %a %a %a %a",
-                (unsigned long long)s->block, (unsigned long long)s->count,
-                (unsigned long long)s->nonfinite, s->f[0], s->f[1], s->absf[0], s->absf[1],
-                s->g[0], s->g[1], s->mean_f, s->mean_g, s->m2_f, s->m2_g, s->c_fg);
+        putf(&h, "sums %llu %llu %llu", (unsigned long long)s->block,
+             (unsigned long long)s->count, (unsigned long long)s->nonfinite);
+        const double v[11] = {s->f[0], s->f[1], s->absf[0], s->absf[1], s->g[0], s->g[1],
+                              s->mean_f, s->mean_g, s->m2_f, s->m2_g, s->c_fg};
+        for (int k = 0; k < 11; k++)
+            putf(&h, " %a", v[k]);
         int top = QMC_SAMPLING_TOP;
         while (top > 0 && s->top[top - 1] == 0.0)
             top--;
-        fprintf(f, " %d", top);
+        putf(&h, " %d", top);
         for (int k = 0; k < top; k++)
-            fprintf(f, " %a", s->top[k]);
-        fputc('\n', f);
+            putf(&h, " %a", s->top[k]);
+        put(&h, "\n", 1);
     }
-    fputs("end\n", f);
+    unsigned char digest[crypto_hash_sha256_BYTES];
+    char hex[65];
+    crypto_hash_sha256_final(&h.sha, digest);
+    cli_part_hex(digest, hex);
+    fprintf(f, "digest sha256 %s\nend\n", hex);
     return 0;
 }

@@ -8,29 +8,54 @@
  * that comes next and fit in it; END must count what arrived.  Anything
  * else is a protocol error and closes the connection.  On a Unix socket a
  * request of more than one chunk first attaches a ring (shm.c) if none is
- * and the server takes it.  Must not: hold more than one chunk (the
- * receive buffer's, or the ring's slots), or print.
+ * and the server takes it.
+ *
+ * A request for more points than the server's max_points (HELLO_OK) is
+ * sent as several POINTS requests of at most max_points each, one after
+ * the other, so remote output equals in-process output whatever the
+ * daemon's limit; the caller sees one stream.  When the connection is
+ * lost halfway, the message says how far the stream got ("the daemon
+ * closed the connection after N of M points").  Must not: hold more than
+ * one chunk (the receive buffer's, or the ring's slots), or print.
  */
 #include <errno.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "client_impl.h"
 
-int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
-                             uint64_t count, qmc_format fmt, qmc_client_chunk_fn on_chunk,
-                             void *ctx)
+/* How far a whole (possibly split) stream has got, for messages. */
+typedef struct stream_progress {
+    uint64_t done;                /* points handed to the callback */
+    uint64_t total;               /* points the caller asked for */
+} stream_progress;
+
+/* err, with c->message saying how far the stream got when the connection
+ * was lost (any error that closed it; a server ERROR keeps it open and
+ * speaks for itself). */
+static int lost_at(qmc_client *c, int err, const stream_progress *pr)
 {
-    int err = qmc__client_ready(c);
-    if (err)
+    if (c->fd >= 0)
         return err;
-    if (!spec || !on_chunk)
-        return qmc__client_fail(c, QMC_EINVAL, "points: no sequence spec or no callback");
-    const size_t value_bytes = qmc_format_bytes(fmt);
-    if (value_bytes == 0)
-        return qmc__client_fail(c, QMC_EFORMAT, "points: unknown output format %d", (int)fmt);
-    /* dims is checked by the server; here it only sizes rows, and
-     * dims x 8 cannot overflow 64 bits. */
-    const uint64_t row_bytes = (uint64_t)spec->dims * value_bytes;
+    char was[QMC_CLIENT_MESSAGE_BYTES];
+    memcpy(was, c->message, sizeof was);
+    if (err == -ECONNRESET || err == -EPIPE || err == -ECONNABORTED)
+        snprintf(c->message, sizeof c->message, "the daemon closed the connection after "
+                 "%llu of %llu points", (unsigned long long)pr->done,
+                 (unsigned long long)pr->total);
+    else
+        snprintf(c->message, sizeof c->message, "%.*s (after %llu of %llu points)",
+                 (int)(sizeof c->message - 48), was, (unsigned long long)pr->done,
+                 (unsigned long long)pr->total);
+    return err;
+}
+
+/* One POINTS request of at most max_points, its chunks and its END. */
+static int stream_one(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
+                      uint64_t count, qmc_format fmt, uint64_t row_bytes,
+                      qmc_client_chunk_fn on_chunk, void *ctx, stream_progress *pr)
+{
+    int err;
     /* More than one chunk's worth: worth a ring, if there is none yet. */
     if (count > QMC__CLIENT_AUTO_SLOT_BYTES / (row_bytes ? row_bytes : 1) &&
         (err = qmc__client_shm_auto(c)) != 0)
@@ -46,18 +71,18 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
     m.u.points.count = count;
     uint64_t id;
     if ((err = qmc__client_send(c, &m, &id)) != 0)
-        return err;
+        return lost_at(c, err, pr);
     uint64_t got = 0, bytes = 0;
     for (;;) {
         /* Each wait for the next frame gets the full timeout: a stream
          * may run long, but the server must keep it moving. */
         err = qmc__client_await(c, id, qmc__client_deadline(c), 0, &m);
         if (err)
-            return err;
+            return lost_at(c, err, pr);
         if (m.type == QMC_MSG_ERROR) {
             /* Slots of chunks already handled go back first. */
             if ((err = qmc__client_shm_release(c)) != 0)
-                return err;
+                return lost_at(c, err, pr);
             return qmc__client_server_error(c, &m);
         }
         if (m.type == QMC_MSG_END) {
@@ -70,7 +95,7 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
                                          (unsigned long long)got, (unsigned long long)count,
                                          (unsigned long long)bytes);
             if ((err = qmc__client_shm_release(c)) != 0)
-                return err;
+                return lost_at(c, err, pr);
             c->message[0] = '\0';
             return 0;
         }
@@ -119,7 +144,35 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
             return qmc__client_break(c, r, "points: the stream was stopped at index %llu; "
                                      "the connection is closed",
                                      (unsigned long long)(start + got));
+        pr->done += points;
     }
+}
+
+int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
+                             uint64_t count, qmc_format fmt, qmc_client_chunk_fn on_chunk,
+                             void *ctx)
+{
+    int err = qmc__client_ready(c);
+    if (err)
+        return err;
+    if (!spec || !on_chunk)
+        return qmc__client_fail(c, QMC_EINVAL, "points: no sequence spec or no callback");
+    const size_t value_bytes = qmc_format_bytes(fmt);
+    if (value_bytes == 0)
+        return qmc__client_fail(c, QMC_EFORMAT, "points: unknown output format %d", (int)fmt);
+    /* dims is checked by the server; here it only sizes rows, and
+     * dims x 8 cannot overflow 64 bits. */
+    const uint64_t row_bytes = (uint64_t)spec->dims * value_bytes;
+    /* A server that names no limit (0) takes the request whole. */
+    const uint64_t per_request = c->max_points ? c->max_points : count;
+    stream_progress pr = {0, count};
+    uint64_t done = 0;
+    do {
+        uint64_t n = count - done < per_request ? count - done : per_request;
+        err = stream_one(c, spec, start + done, n, fmt, row_bytes, on_chunk, ctx, &pr);
+        done += n;
+    } while (err == 0 && done < count);
+    return err;
 }
 
 typedef struct copy_ctx {

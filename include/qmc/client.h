@@ -174,8 +174,14 @@ typedef int (*qmc_client_chunk_fn)(void *ctx, uint64_t first, uint32_t points,
  * Fetches points [start, start + count) of spec's sequence in format fmt,
  * calling on_chunk for each chunk.  Every chunk's first index and size are
  * checked against the request, and END's totals against what arrived
- * (QMC_EPROTO otherwise).  The server's checks (spec, range, its
- * max_points) come back as its ERROR code and message.
+ * (QMC_EPROTO otherwise).  The server's checks (spec, range) come back
+ * as its ERROR code and message.  A count above the server's max_points
+ * (qmc_client_max_points) is sent as consecutive requests of at most
+ * max_points each and reaches on_chunk as one stream, the same points as
+ * one request: check the range first if a later request's ERROR must not
+ * come after earlier chunks.  When the connection is lost mid-stream the
+ * message says how far it got ("the daemon closed the connection after N
+ * of M points").
  */
 QMC_MUST_CHECK int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec,
                                             uint64_t start, uint64_t count,

@@ -164,7 +164,11 @@ struct fake {
     size_t in_len, in_used;
     uint8_t out[1 << 20];
     int arg;
+    uint64_t max_points;      /* what HELLO_OK says */
 };
+
+/* The fake's max_points unless a test asks for less (fake_start_limited). */
+#define FAKE_MAX_POINTS (1u << 20)
 
 static void fake_bad(fake *f, const char *what)
 {
@@ -290,7 +294,7 @@ static int srv_hello_v(fake *f, int fd, uint16_t version)
     m.u.hello_ok.version = version;
     m.u.hello_ok.max_frame = 1u << 20;
     m.u.hello_ok.max_inflight = 4;
-    m.u.hello_ok.max_points = 1000;
+    m.u.hello_ok.max_points = f->max_points;
     m.u.hello_ok.sobol_table_hash = 0x0123456789abcdefull;
     m.u.hello_ok.server = (qmc_str){"fake-qmcd", 9};
     m.u.hello_ok.engine = (qmc_str){"test 1.0", 8};
@@ -319,12 +323,13 @@ static void *fake_main(void *arg)
     return NULL;
 }
 
-static fake *fake_start(script_fn script, int arg)
+static fake *fake_start_limited(script_fn script, int arg, uint64_t max_points)
 {
     fake *f = calloc(1, sizeof *f);
     assert_non_null(f);
     f->script = script;
     f->arg = arg;
+    f->max_points = max_points;
     strcpy(f->dir, "/tmp/qmc-test-client-XXXXXX");
     assert_non_null(mkdtemp(f->dir));
     snprintf(f->path, sizeof f->path, "%s/s", f->dir);
@@ -339,6 +344,11 @@ static fake *fake_start(script_fn script, int arg)
     assert_int_equal(listen(f->lfd, 4), 0);
     assert_int_equal(pthread_create(&f->th, NULL, fake_main, f), 0);
     return f;
+}
+
+static fake *fake_start(script_fn script, int arg)
+{
+    return fake_start_limited(script, arg, FAKE_MAX_POINTS);
 }
 
 static void fake_stop(fake *f)
@@ -413,7 +423,7 @@ static void test_ping_errors_stats(void **state)
     assert_true(qmc_client_sobol_table_hash(c) == 0x0123456789abcdefull);
     assert_int_equal(qmc_client_max_frame(c), 1u << 20);
     assert_int_equal(qmc_client_max_inflight(c), 4);
-    assert_true(qmc_client_max_points(c) == 1000);
+    assert_true(qmc_client_max_points(c) == FAKE_MAX_POINTS);
     double rtt = -1;
     assert_int_equal(qmc_client_ping(c, &rtt), 0);
     assert_true(rtt > 0 && rtt < 5);
@@ -631,6 +641,54 @@ static void test_stream_stop(void **state)
     assert_int_equal(calls, 2);
     double rtt;
     assert_int_equal(qmc_client_ping(c, &rtt), -ENOTCONN);
+    qmc_client_close(c);
+    fake_stop(f);
+}
+
+/* This fake's HELLO_OK says max_points 1000: a request of 2500 goes as
+ * three requests (1000, 1000, 500); then a split stream whose server hangs
+ * up after 1500 points. */
+static void script_split(fake *f, int fd)
+{
+    if (srv_hello(f, fd))
+        return;
+    qmc_msg m;
+    static const uint64_t parts[3][2] = {{5, 1000}, {1005, 1000}, {2005, 500}};
+    for (int i = 0; i < 3; i++) {
+        if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+            return;
+        if (m.u.points.start != parts[i][0] || m.u.points.count != parts[i][1])
+            fake_bad(f, "split POINTS fields");
+        uint32_t half = (uint32_t)parts[i][1] / 2;
+        send_chunk(f, fd, m.request_id, parts[i][0], half, 1);
+        send_chunk(f, fd, m.request_id, parts[i][0] + half, (uint32_t)parts[i][1] - half, 1);
+        send_end(f, fd, m.request_id, parts[i][1], parts[i][1] * 8);
+    }
+    if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+        return;
+    send_chunk(f, fd, m.request_id, 0, 1000, 1);
+    send_end(f, fd, m.request_id, 1000, 8000);
+    if (srv_expect(f, fd, &m, QMC_MSG_POINTS))
+        return;
+    send_chunk(f, fd, m.request_id, 1000, 500, 1);
+    /* and the daemon dies: the fake closes the connection on return */
+}
+
+static void test_points_split(void **state)
+{
+    (void)state;
+    fake *f = fake_start_limited(script_split, 0, 1000);
+    qmc_client *c = NULL;
+    assert_int_equal(qmc_client_connect(f->endpoint, TIMEOUT_MS, &c), 0);
+    qmc_seq_spec spec = {QMC_SEQ_SOBOL, 1, QMC_SCRAMBLE_NONE, 0, 0, 0};
+    static double out[2500];
+    assert_int_equal(qmc_client_points(c, &spec, 5, 2500, QMC_FORMAT_F64, out, sizeof out), 0);
+    for (int p = 0; p < 2500; p++)
+        assert_true(out[p] == 5 + p);
+    int err = qmc_client_points(c, &spec, 0, 2500, QMC_FORMAT_F64, out, sizeof out);
+    assert_int_equal(err, -ECONNRESET);
+    assert_string_equal(qmc_client_last_error(c),
+                        "the daemon closed the connection after 1500 of 2500 points");
     qmc_client_close(c);
     fake_stop(f);
 }
@@ -1239,6 +1297,7 @@ int main(void)
         cmocka_unit_test(test_hostile_peers),
         cmocka_unit_test(test_points),
         cmocka_unit_test(test_stream_stop),
+        cmocka_unit_test(test_points_split),
         cmocka_unit_test(test_jobs),
         cmocka_unit_test(test_shm),
         cmocka_unit_test(test_shm_refused),
