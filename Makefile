@@ -125,8 +125,17 @@ $(QMCD): $(DAEMON_OBJ) $(LIBPROTO) $(LIBQMC)
 # ---- tests --------------------------------------------------------------------
 $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) -Icore -Iprotocol -Itests/unit $(DEPFLAGS) -o $@ $< $(UNIT_HELPER) \
-	  $(ALL_LIBS) -lcmocka -pthread $(LDLIBS) $(LDFLAGS)
+	$(CC) $(CFLAGS) -Icore -Iprotocol -Itests/unit $(UNIT_DAEMON_INC) $(DEPFLAGS) -o $@ $< \
+	  $(UNIT_HELPER) $(UNIT_DAEMON_OBJ) $(ALL_LIBS) -lcmocka -pthread $(LDLIBS) $(LDFLAGS)
+
+# Unit tests of daemon modules link just the daemon objects they test (the
+# daemon is a program, not a library): one line per test.
+$(BUILD)/tests/test_peers: UNIT_DAEMON_OBJ := $(BUILD)/daemon/peers.o
+$(BUILD)/tests/test_peers: UNIT_DAEMON_INC := -Idaemon
+$(BUILD)/tests/test_peers: $(BUILD)/daemon/peers.o
+# test_integrate_memory counts libqmc's allocations through wrappers.
+$(BUILD)/tests/test_integrate_memory: UNIT_DAEMON_OBJ := \
+  -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc,--wrap=free
 
 # The CLI's file pieces (pure readers, outfile.c) have a unit test that
 # links them beside the libraries.

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "integrate_memory.h"
 #include "interrupt.h"
 #include "msg.h"
 #include "rule_evidence.h"
@@ -213,18 +214,8 @@ static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f, 
                            .max_evals = spec->max_evals, .interrupt = spec->interrupt};
     if (c.tol_abs == 0 && c.tol_rel == 0)
         c.tol_rel = 1e-8;
-    size_t useful;
-    if (cc) {
-        useful = qmc_cubature_cc_workspace_bytes(f->dims, spec->max_evals);
-    } else {
-        uint64_t region = qmc_cubature_region_evals(f->dims);
-        uint64_t regions = region ? spec->max_evals / region + 2 : 2;
-        useful = qmc_cubature_workspace_bytes(
-            f->dims, regions > UINT32_MAX ? UINT32_MAX : (uint32_t)regions);
-    }
-    size_t bytes = (size_t)spec->max_memory;
-    if (useful && bytes > useful)
-        bytes = useful;
+    /* integrate_memory.c bounds a call by the same function. */
+    size_t bytes = qmc__cubature_bytes(spec, f->dims, cc);
     void *ws = malloc(bytes ? bytes : 1);
     if (!ws) {
         qmc__msg_set(why, "out of memory for ", spec->max_memory,

@@ -427,6 +427,7 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             snprintf(why, sizeof why, "max-connections (%llu) reached; try later",
                      (unsigned long long)srv->cfg.max_connections);
         } else if (qmcd_peers_count(srv->peers, &key) >= srv->cfg.max_connections_per_peer) {
+            srv->stats.peer_conn_refusals++;
             char who[64];
             qmcd_peer_key_name(&key, who, sizeof who);
             snprintf(why, sizeof why, "max-connections-per-peer (%llu) reached for %s; "
@@ -547,6 +548,7 @@ static void update_interest(qmcd_conn *c)
         if (want && !pending && short_of_global_memory(c)) {
             want = 0;
             if (!c->out_waiting) {
+                c->srv->stats.out_waits++;
                 c->out_waiting = 1;
                 c->srv->n_out_waiting++;
             }

@@ -119,6 +119,10 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     qmcd_server *srv = c->srv;
     qmc_stat entries[QMC_PROTO_MAX_STATS];
     qmc_msg r = {.type = QMC_MSG_STATS_REPLY, .request_id = m->request_id};
+    qmcd_pool_counts pc; /* the pool's own, kept under its mutex */
+    qmcd_pool_counts_get(srv->pool, &pc);
+    srv->stats.memory_waits = pc.memory_waits;
+    srv->stats.memory_reserved = pc.memory_reserved;
     r.u.stats.count = qmcd_stats_entries(&srv->stats, srv->n_conns, srv->n_jobs, entries,
                                          QMC_PROTO_MAX_STATS);
     r.u.stats.count += qmcd_modbus_stats(srv, entries + r.u.stats.count,

@@ -241,12 +241,14 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     qmcd_server *srv = c->srv;
     const qmc_msg_integrate *g = &m->u.integrate;
     if (c->n_jobs >= srv->cfg.max_jobs_per_conn) {
+        srv->stats.jobs_conn_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-jobs-per-conn: %llu jobs already open on this connection",
                         (unsigned long long)srv->cfg.max_jobs_per_conn);
         return;
     }
     if (srv->n_jobs >= srv->cfg.max_jobs) {
+        srv->stats.jobs_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-jobs: %llu jobs already open on this server; try later",
                         (unsigned long long)srv->cfg.max_jobs);
@@ -298,6 +300,19 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         j->spec.max_evals = srv->cfg.max_job_evals;
     if (j->spec.max_memory > srv->cfg.max_job_memory)
         j->spec.max_memory = srv->cfg.max_job_memory;
+    /* max-jobs-memory-total: the job reserves its bound before it runs
+     * (pool.c); one that could never fit is told so now, not queued. */
+    j->task.mem_bytes = qmc_integrate_memory_bytes(&j->spec, qmc_job_integrand(j->job)->dims);
+    if (j->task.mem_bytes > srv->cfg.max_jobs_memory_total) {
+        srv->stats.memory_refusals++;
+        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                        "max-jobs-memory-total: this job may need %llu bytes, more than the "
+                        "%llu all running jobs may hold; lower its max_memory or max_evals",
+                        (unsigned long long)j->task.mem_bytes,
+                        (unsigned long long)srv->cfg.max_jobs_memory_total);
+        job_free(j);
+        return;
+    }
     atomic_init(&j->state, QMC_JOB_QUEUED);
     atomic_init(&j->cancel, CANCEL_NONE);
     atomic_init(&j->evals, 0);
@@ -378,6 +393,7 @@ static int cancel_allowed(qmcd_conn *c)
 void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
     if (!cancel_allowed(c)) {
+        c->srv->stats.cancel_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-cancels-per-conn: more than %llu JOB_CANCEL a minute on this "
                         "connection; cancel less often",

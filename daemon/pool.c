@@ -26,6 +26,15 @@
  * `workers`, so that a peer with many connections leaves runners free for
  * every other peer.
  *
+ * Job memory: each task states what it may allocate (mem_bytes, from
+ * qmc_integrate_memory_bytes) and reserves it when it takes a runner; the
+ * reservations of the tasks on runners stay within mem_total
+ * (max-jobs-memory-total).  A task that does not fit keeps its tenant's
+ * turn: no runner is handed out until the reservations of the running
+ * ones shrink enough for it, so a big job is not passed over forever by a
+ * stream of small ones (first in turn, first served).  Cancelled tasks
+ * start past this too: they allocate nothing.
+ *
  * Determinism: a block's sums depend only on (job, block index) and are
  * written to out[i]; qmc_sampling_finish combines them in block order.  So
  * which thread ran which block, and in what order, never changes a bit of
@@ -102,6 +111,10 @@ struct qmcd_pool {
     unsigned slots_free;
     unsigned tenant_running_max;
     unsigned peer_running_max;   /* runners one peer's tenants may hold */
+    uint64_t mem_total;          /* max-jobs-memory-total */
+    uint64_t mem_used;           /* reserved by the tasks on runners */
+    uint64_t mem_waits;          /* tasks whose start memory held back */
+    uint64_t mem_stalls;         /* times admission stopped for memory */
     peer_group *groups;
     qmcd_pool_tenant *rr_compute; /* ring cursor: who gets the next slot */
     qmcd_pool_tenant *rr_admit;   /* ring cursor: who gets the next runner */
@@ -252,25 +265,48 @@ static qmcd_pool_task *pick_task(qmcd_pool *pool)
     if (!first)
         return NULL;
     qmcd_pool_tenant *t = first;
+    int stalled = 0; /* a task at its turn waits for memory */
     do {
-        /* A cancelled task goes past the tenant's limit: it only has to
-         * notice, and its answer should not wait for the tenant's running
-         * jobs to end. */
+        /* A cancelled task goes past the tenant's limit (and past a
+         * memory stall): it only has to notice, and its answer should not
+         * wait for the tenant's running jobs to end. */
         qmcd_pool_task **link = &t->queue_head, *prev = NULL;
         while (*link && !(*link)->must_stop((*link)))
             prev = *link, link = &(*link)->next;
-        if (!*link && t->running < pool->tenant_running_max &&
+        int cancelled = *link != NULL;
+        if (!*link && !stalled && t->running < pool->tenant_running_max &&
             t->group->running < pool->peer_running_max)
             link = &t->queue_head, prev = NULL;
         qmcd_pool_task *task = *link;
+        uint64_t room = pool->mem_used < pool->mem_total ? pool->mem_total - pool->mem_used : 0;
+        if (task && !cancelled && task->mem_bytes > room && pool->mem_used > 0) {
+            /* Its turn, but not its memory yet: it waits, and so does
+             * everyone behind it in turn (but cancelled tasks), until
+             * running jobs give back enough (runner() wakes the runners
+             * when one ends).  With nothing reserved it runs whatever it
+             * needs: jobs over the total are refused at submission, so
+             * that is one queued before SIGHUP lowered the total, and it
+             * must not wait for ever. */
+            pool->mem_stalls++;
+            stalled = 1;
+            task = NULL;
+        }
         if (task) {
+            if (cancelled)
+                task->mem_bytes = 0; /* it only has to notice */
+            /* Admission stopped for memory since it was queued: it was
+             * held back, at its turn or behind the one whose turn it was. */
+            else if (task->mem_epoch != pool->mem_stalls)
+                pool->mem_waits++;
+            pool->mem_used += task->mem_bytes;
             *link = task->next;
             if (t->queue_tail == task)
                 t->queue_tail = prev;
             task->next = NULL;
             t->running++;
             t->group->running++;
-            pool->rr_admit = t->next;
+            if (!stalled) /* the stalled tenant keeps its turn */
+                pool->rr_admit = t->next;
             return task;
         }
         t = t->next;
@@ -377,6 +413,7 @@ static void *runner(void *arg)
         task->run(task);
         pthread_mutex_lock(&pool->mu);
         release_slot(pool);
+        pool->mem_used -= task->mem_bytes;
         qmcd_pool_tenant *t = task->tenant;
         t->running--;
         t->group->running--;
@@ -506,6 +543,7 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task *task
     task->granted = 0;
     task->next = NULL;
     pthread_mutex_lock(&pool->mu);
+    task->mem_epoch = pool->mem_stalls;
     t->refs++;
     if (t->queue_tail)
         t->queue_tail->next = task;
@@ -513,6 +551,24 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task *task
         t->queue_head = task;
     t->queue_tail = task;
     pthread_cond_signal(&pool->runner_cv);
+    pthread_mutex_unlock(&pool->mu);
+}
+
+void qmcd_pool_set_memory_total(qmcd_pool *pool, uint64_t bytes)
+{
+    pthread_mutex_lock(&pool->mu);
+    pool->mem_total = bytes;
+    /* A raised total may let a waiting task start now; a lowered one only
+     * holds back later tasks (running ones keep what they reserved). */
+    pthread_cond_broadcast(&pool->runner_cv);
+    pthread_mutex_unlock(&pool->mu);
+}
+
+void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out)
+{
+    pthread_mutex_lock(&pool->mu);
+    out->memory_waits = pool->mem_waits;
+    out->memory_reserved = pool->mem_used;
     pthread_mutex_unlock(&pool->mu);
 }
 
@@ -543,6 +599,7 @@ int qmcd_pool_new(unsigned workers, qmcd_pool **out)
     pool->n_workers = workers;
     pool->n_runners = workers + (workers > RUNNERS_SPARE ? workers : RUNNERS_SPARE);
     pool->slots_free = workers;
+    pool->mem_total = UINT64_MAX; /* until qmcd_pool_set_memory_total */
     pool->tenant_running_max = workers;
     /* One peer may hold every runner but `workers` of them: another peer's
      * job always finds one, however many connections the first opens. */

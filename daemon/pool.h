@@ -24,6 +24,8 @@ struct qmcd_pool_task {
     qmcd_pool_task *next;                   /* pool mutex: queue or done list */
     qmcd_pool_tenant *tenant;
     qmcd_pool *pool;
+    uint64_t mem_bytes;                     /* caller: what the job may allocate */
+    uint64_t mem_epoch;                     /* pool mutex: mem_stalls when submitted */
     int granted;                            /* pool mutex: a slot was handed over */
     int64_t slot_ms;                        /* runner: when it took its slot */
 };
@@ -48,6 +50,19 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *tenant, qmcd_pool_task 
 /* Some queued task's must_stop turned true: a free runner starts it now,
  * past its tenant's limit, so that its answer does not wait.  Loop thread. */
 void qmcd_pool_cancelled(qmcd_pool *pool);
+
+/* max-jobs-memory-total: tasks on runners together reserve at most this
+ * many bytes of mem_bytes (a task that alone exceeds it must be refused
+ * before it is submitted).  Loop thread, at start and on SIGHUP. */
+void qmcd_pool_set_memory_total(qmcd_pool *pool, uint64_t bytes);
+
+/* Isolation counters, for STATS: tasks that waited for job memory, and the
+ * bytes reserved now by the tasks on runners. */
+typedef struct qmcd_pool_counts {
+    uint64_t memory_waits;
+    uint64_t memory_reserved;
+} qmcd_pool_counts;
+void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out);
 
 /* Takes the list of finished tasks (linked by next).  Loop thread. */
 qmcd_pool_task *qmcd_pool_take_done(qmcd_pool *pool);

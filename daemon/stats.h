@@ -31,7 +31,14 @@
     X(reloads, "config_reloads")                            \
     X(jobs_dropped, "jobs_dropped")                         \
     X(auth_failures, "auth_failures")                       \
-    X(auth_lockouts, "auth_lockouts")
+    X(auth_lockouts, "auth_lockouts")                       \
+    X(peer_conn_refusals, "refused_connections_per_peer")   \
+    X(out_waits, "out_buffer_waits")                        \
+    X(jobs_conn_refusals, "refused_jobs_per_conn")          \
+    X(jobs_refusals, "refused_jobs")                        \
+    X(cancel_refusals, "refused_cancels_per_conn")          \
+    X(memory_refusals, "refused_job_memory")                \
+    X(memory_waits, "job_memory_waits")
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
@@ -45,6 +52,9 @@ typedef struct qmcd_stats {
 #define QMCD__STAT_FIELD(field, name) uint64_t field;
     QMCD_STATS_MAP(QMCD__STAT_FIELD)
 #undef QMCD__STAT_FIELD
+    /* Gauge: bytes max-jobs-memory-total has reserved for running jobs
+     * (the pool's; copied in, like memory_waits, when STATS is asked). */
+    uint64_t memory_reserved;
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;

@@ -85,8 +85,17 @@ static const known_stat known[] = {
     {"jobs_dropped", 0, "Jobs whose connection closed before their answer was sent."},
     {"auth_failures", 0, "Handshakes refused for a wrong key proof."},
     {"auth_lockouts", 0, "Handshakes refused because the address was locked out."},
+    {"refused_connections_per_peer", 0, "Connections refused for max-connections-per-peer."},
+    {"out_buffer_waits", 0, "Times a stream waited for out-buffer-total-bytes."},
+    {"refused_jobs_per_conn", 0, "INTEGRATEs refused for max-jobs-per-conn."},
+    {"refused_jobs", 0, "INTEGRATEs refused for max-jobs."},
+    {"refused_cancels_per_conn", 0, "JOB_CANCELs refused for max-cancels-per-conn."},
+    {"refused_job_memory", 0, "INTEGRATEs refused: alone over max-jobs-memory-total."},
+    {"job_memory_waits", 0, "Jobs that waited for max-jobs-memory-total before they ran."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
+    {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
+                                     "jobs now."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };

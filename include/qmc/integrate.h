@@ -100,6 +100,15 @@ QMC_MUST_CHECK int qmc_integrate(const qmc_integrate_spec *spec,
                                  qmc_integrate_report *rep, char *why,
                                  size_t why_bytes);
 
+/*
+ * An upper bound on the bytes one qmc_integrate(spec, f, ...) call with
+ * f->dims == dims allocates: a rule's workspace, the sampling methods'
+ * block sums, auto's VEGAS map, whichever the method can use.  Leaves out
+ * the integrand itself and a runner's own block workspaces.  A server
+ * reserves it before running a job; saturates at UINT64_MAX.
+ */
+uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dims);
+
 /* "sobol owen, 16 x 4096 points" for a sampling spec, into buf. */
 void qmc_sampling_describe(const qmc_sampling_spec *s, char *buf, size_t bytes);
 

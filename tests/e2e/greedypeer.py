@@ -13,6 +13,7 @@ peer) and prints "ok NAME" / "FAIL NAME: why" lines like it.
     greedypeer.py starve ADDR
     greedypeer.py quota ADDR JOBS_PER_CONN CANCELS_PER_CONN
     greedypeer.py punch ADDR PID
+    greedypeer.py jobmem TCP_ADDR UNIX_ADDR PID TOTAL_MB JOB_MB SLACK_MB
 
 No wall-clock thresholds: order and state only ("the small job finished
 while the big ones still ran").  Every wait is bounded by a socket timeout
@@ -21,6 +22,7 @@ and every loop by a count.
 import ctypes
 import errno
 import fcntl
+import math
 import mmap
 import os
 import resource
@@ -88,6 +90,14 @@ def rss_check(pid, base_kb, bound_mb, name):
     now = vmrss_kb(pid)
     check("%s: VmRSS %d kB -> %d kB, under +%d MiB" % (name, base_kb, now, bound_mb),
           now - base_kb < bound_mb * 1024, "grew %d kB" % (now - base_kb))
+
+
+def stats_of(addr):
+    """The daemon's STATS, from a fresh connection."""
+    p = Peer(addr, timeout=20.0)
+    st = p.stats()
+    p.close()
+    return st
 
 
 def raise_nofile(n):
@@ -213,6 +223,11 @@ def sc_peers(tcp_addr, unix_addr, pid, per_peer):
         check("uid %d holding its limit: uid 65534 on the same socket gets in"
               % os.getuid(), said == b"0", repr(said))
     serves_correctly(tcp_addr, "both greedy peers holding their limits")
+    st = stats_of(tcp_addr)
+    want = (1030 - per_peer) + (per_peer + 10)
+    check("STATS refused_connections_per_peer counts every refusal by that limit (%d, want "
+          "%d)" % (st["refused_connections_per_peer"], want),
+          st["refused_connections_per_peer"] == want)
     rss_check(pid, base, 64, "1030 + %d greedy sockets" % (2 * per_peer + 10))
     for s in kept + ukept:
         s.close()
@@ -239,6 +254,7 @@ def sc_noread(addr, pid, conns, limit_mb):
     out-buffer-total-bytes, and a reading client is still served."""
     pid, conns, limit_mb = int(pid), int(conns), int(limit_mb)
     raise_nofile(conns + 256)
+    waits0 = stats_of(addr)["out_buffer_waits"]
     base = vmrss_kb(pid)
     greedy = []
     for _ in range(conns):
@@ -284,6 +300,9 @@ def sc_noread(addr, pid, conns, limit_mb):
               "(dimension 1 = radical inverse), then END" % conns,
               f and f[0] == "END" and list(got[0::2]) == want, repr(f and f[0]))
         q.close()
+        waits = stats_of(addr)["out_buffer_waits"]
+        check("STATS out_buffer_waits moved with the waiting streams (%d -> %d, the reader's "
+              "among them)" % (waits0, waits), waits0 == 0 and waits >= 1)
     except (OSError, ValueError, PeerError) as e:
         check("%d non-reading streams: a reader's stream arrives" % conns, False, repr(e))
     for p in greedy:
@@ -386,6 +405,7 @@ def sc_quota(addr, jobs_per_conn, cancels_per_conn):
     JOB_CANCEL, is refused with an ERROR naming the limit; the connection
     stays usable and the daemon serves others."""
     jobs_per_conn, cancels_per_conn = int(jobs_per_conn), int(cancels_per_conn)
+    st0 = stats_of(addr)
     g = Peer(addr, timeout=30.0)
     ids, ids_rids = [], set()
     for _ in range(jobs_per_conn):
@@ -428,6 +448,13 @@ def sc_quota(addr, jobs_per_conn, cancels_per_conn):
             pong = f is not None and f[0] == "PONG"
             break
     check("quotas: the refused connection still answers PING", pong)
+    st = stats_of(addr)
+    check("STATS refused_jobs_per_conn and refused_cancels_per_conn count one refusal each "
+          "(%d, %d)" % (st["refused_jobs_per_conn"] - st0["refused_jobs_per_conn"],
+                        st["refused_cancels_per_conn"] - st0["refused_cancels_per_conn"]),
+          st["refused_jobs_per_conn"] - st0["refused_jobs_per_conn"] == 1 and
+          st["refused_cancels_per_conn"] - st0["refused_cancels_per_conn"] == 1 and
+          st["refused_jobs"] == st0["refused_jobs"])
     serves_correctly(addr, "quotas refused")
     g.close()
 
@@ -571,7 +598,171 @@ def sc_starve_peers(tcp_addr, conns):
     serves_correctly(tcp_addr, "after one peer's %d greedy connections" % conns)
 
 
-SCENARIOS = dict(peers=sc_peers, noread=sc_noread, starve=sc_starve, quota=sc_quota, punch=sc_punch,
+def rss_parts(pid):
+    """VmRSS's parts and the thread count, for a failure's message."""
+    with open("/proc/%d/status" % pid) as f:
+        return " ".join(line.split(":")[0] + "=" + line.split()[1] for line in f
+                        if line.split(":")[0] in ("RssAnon", "RssFile", "RssShmem", "Threads"))
+
+
+def hungry_job(max_memory):
+    """A cubature job that fills max_memory with regions before it stops
+    (tol_rel 1e-300: it refines until the region memory bound), on a
+    Gaussian whose integral has a closed form."""
+    spec = qmcpeer.cli_like_spec("genz-gaussian", 2, "cubature")
+    spec.update(a=(5.0, 5.0), u=(0.5, 0.5), tol_rel=1e-300, max_evals=16000000,
+                max_memory=max_memory)
+    return spec
+
+
+def hungry_exact():
+    """prod over 2 axes of int_0^1 exp(-25 (x - 1/2)^2) dx (Genz 1984's
+    Gaussian), by erf."""
+    a, u = 5.0, 0.5
+    axis = math.sqrt(math.pi) / (2 * a) * (math.erf(a * (1 - u)) + math.erf(a * u))
+    return axis * axis
+
+
+def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
+    """Memory-hungry jobs from four peers (127.0.0.1, .2, .3 and a Unix uid),
+    two each, every one reserving job_mb under max-jobs-memory-total
+    total_mb: no more run at once than fit, the others wait their turn and
+    all are answered with the bits of an idle daemon and the closed form
+    within the bar; VmRSS stays under +total + slack; a job that alone
+    exceeds the total is refused with an ERROR naming the limit; STATS
+    counts the waits and the refusal."""
+    pid, total_mb, job_mb, slack_mb = int(pid), int(total_mb), int(job_mb), int(slack_mb)
+    fit = total_mb // job_mb
+    spec = hungry_job(job_mb << 20)
+    idle = Peer(unix_addr, timeout=60.0)
+    alone = qmcpeer.run_job(idle, spec)
+    exact = hungry_exact()
+    check("hungry job on an idle daemon: the closed form within its bar (%r, error %r, "
+          "exact %r)" % (alone["estimate"], alone["error"], exact),
+          abs(alone["estimate"] - exact) <= max(alone["error"], 1e-15))
+    st0 = idle.stats()
+    base = vmrss_kb(pid)
+    base_parts = rss_parts(pid)
+    peers = [Peer(unix_addr, timeout=60.0)] + [TcpPeer(tcp_addr, h) for h in
+                                              ("127.0.0.1", GREEDY_HOST, "127.0.0.3")]
+    jobs = []  # (peer, job id, request id)
+    for _ in range(2):
+        for p in peers:
+            rid = p.rid()
+            p.send(p.integrate_frame(rid, **spec))
+            t, r, d = p.recv()
+            if t != "JOB_ACCEPTED":
+                raise ValueError("hungry job answered %s %r" % (t, d))
+            jobs.append((p, d["job_id"], rid))
+    # Poll states and the reservation until every job has left the queue:
+    # never more than `fit` running, never more reserved than the total.
+    answers = {}  # request id -> the JOB_RESULT dict, or None for an ERROR
+
+    def state_of(p, jid):
+        """JOB_STATUS, keeping any job's final answer that comes first."""
+        rid = p.rid()
+        p.send(frame(MSG["JOB_STATUS"], rid, struct.pack("<Q", jid)))
+        for _ in range(100):
+            t, r, d = p.recv()
+            if r == rid:
+                return d.get("state") if t == "JOB_STATE" else t
+            if t in ("JOB_RESULT", "ERROR"):
+                answers[r] = d if t == "JOB_RESULT" else None
+        return None
+
+    # A queued job cancelled while the others wait for memory is answered
+    # at once (cancelled jobs reserve nothing and pass the stall).
+    cp, cjid, crid = jobs.pop()
+    rid = cp.rid()
+    cp.send(frame(MSG["JOB_CANCEL"], rid, struct.pack("<Q", cjid)))
+    cancelled = None
+    for _ in range(100):
+        t, r, d = cp.recv()
+        if t in ("JOB_RESULT", "ERROR") and r != rid:
+            answers[r] = d if t == "JOB_RESULT" else None
+            if r == crid:
+                cancelled = d
+                break
+    still = [state_of(p, jid) for p, jid, _ in jobs]
+    # (Before any running one ended: the first `fit` still run, the rest
+    # still wait.)
+    check("a queued hungry job cancelled is answered ECANCELED while the first %d still "
+          "run and the rest wait for memory (%s)" % (fit, ",".join(map(str, still))),
+          cancelled is not None and cancelled.get("code") == qmcpeer.ECANCELED and
+          still.count("running") == fit and still.count("queued") == len(jobs) - fit,
+          repr(cancelled))
+    most_running, most_reserved, peak, polls = 0, 0, base, 0
+    for polls in range(1, 2000):
+        states = [state_of(p, jid) for p, jid, _ in jobs]
+        st = idle.stats()
+        most_running = max(most_running, states.count("running"))
+        most_reserved = max(most_reserved, st.get("job_memory_reserved_bytes", -1))
+        peak = max(peak, vmrss_kb(pid))
+        if "queued" not in states and "running" not in states:
+            break
+        time.sleep(0.02)
+    results = []
+    for p, jid, rid in jobs:
+        for _ in range(100):
+            if rid in answers:
+                break
+            t, r, d = p.recv()
+            if t in ("JOB_RESULT", "ERROR"):
+                answers[r] = d if t == "JOB_RESULT" else None
+        results.append(answers.get(rid))
+    st = idle.stats()
+    print("# %d hungry jobs of %d MiB under a %d MiB total: at most %d running, %d bytes "
+          "reserved at most, VmRSS %d kB -> peak %d kB (%d polls)"
+          % (len(jobs), job_mb, total_mb, most_running, most_reserved, base, peak, polls))
+    # (The states are read one job after another, so a scan can see a job
+    # still running and its successor already started: the reservation,
+    # read at once under the pool's lock, is the count of running jobs.)
+    at_once = most_reserved // (job_mb << 20)
+    check("%d hungry jobs: at most %d ran at once (reserved %d bytes = %d jobs at most)"
+          % (len(jobs), fit, most_reserved, at_once),
+          most_reserved % (job_mb << 20) == 0 and 1 <= at_once <= fit and most_running >= 1)
+    check("%d hungry jobs: reserved memory stayed within %d MiB (saw %d bytes)"
+          % (len(jobs), total_mb, most_reserved), 0 < most_reserved <= total_mb << 20)
+    waits = st["job_memory_waits"] - st0["job_memory_waits"]
+    check("%d hungry jobs: STATS job_memory_waits counts the jobs that waited (%d, at least "
+          "%d)" % (len(jobs), waits, len(jobs) - fit), waits >= len(jobs) - fit)
+    check("%d hungry jobs: VmRSS %d kB -> peak %d kB, under +%d MiB"
+          % (len(jobs), base, peak, total_mb + slack_mb),
+          peak - base < (total_mb + slack_mb) * 1024,
+          "at the base %s; now %s" % (base_parts, rss_parts(pid)))
+    check("%d hungry jobs from 4 peers: all answered with the same bits as on an idle daemon"
+          % len(jobs), len(results) == len(jobs) and all(
+              r is not None and qmcpeer.same(r["estimate"], alone["estimate"]) and
+              qmcpeer.same(r["error"], alone["error"]) for r in results),
+          repr([r and r["estimate"] for r in results]))
+    check("after the hungry jobs nothing stays reserved", st["job_memory_reserved_bytes"] == 0,
+          repr(st["job_memory_reserved_bytes"]))
+    # ... and the memory went back to the kernel, not into the runners'
+    # malloc arenas (which kept 24 MiB per runner that ever ran one).
+    after = vmrss_kb(pid)
+    check("after the hungry jobs VmRSS is back near its base (%d kB -> %d kB, within 16 MiB)"
+          % (base, after), after - base < 16 * 1024)
+    # One job alone over the total (a budget that could fill its
+    # max_memory): refused at once, with the reason.
+    big = hungry_job((total_mb + 1) << 20)
+    big["max_evals"] = 10 ** 9
+    rid = idle.rid()
+    idle.send(idle.integrate_frame(rid, **big))
+    t, r, d = idle.recv()
+    st2 = idle.stats()
+    check("a job over max-jobs-memory-total alone gets ERROR naming the limit",
+          t == "ERROR" and r == rid and d["code"] == QMC_ETOOBIG and
+          "max-jobs-memory-total" in d["message"], repr((t, d)))
+    check("STATS refused_job_memory counts it (%d -> %d)"
+          % (st["refused_job_memory"], st2["refused_job_memory"]),
+          st2["refused_job_memory"] == st["refused_job_memory"] + 1)
+    for p in peers:
+        p.close()
+    idle.close()
+    serves_correctly(unix_addr, "after the hungry jobs")
+
+
+SCENARIOS = dict(jobmem=sc_jobmem, peers=sc_peers, noread=sc_noread, starve=sc_starve, quota=sc_quota, punch=sc_punch,
                  starve_peers=sc_starve_peers)
 
 if __name__ == "__main__":

@@ -90,8 +90,10 @@ stop "$pid"
 # that runs none) against another's tiny job, asserted by order: the tiny
 # job is answered while all 8 still run or wait, with the same bits as on
 # an idle daemon.  (Before the fair pool it waited behind them: 60 s
-# socket timeout.)  max-job-evals is raised so the 8 never end by budget.
-start starve --threads 2 --max-job-evals 1099511627776 || exit 1
+# socket timeout.)  max-job-evals is raised so the 8 never end by budget;
+# at 2^40 evaluations an adaptive job may hold 94 GB of block sums, so
+# max-jobs-memory-total is raised with it (test 6 tries that limit).
+start starve --threads 2 --max-job-evals 1099511627776 --max-jobs-memory-total 4096G || exit 1
 greedy starve "$U"
 # One peer with 6 connections x 2 such jobs would take all 10 runners; it
 # gets all but 2 (threads), and 127.0.0.1's job still runs and finishes.
@@ -100,7 +102,7 @@ stop "$pid"
 
 # 4. Quotas: jobs in flight and cancels, per connection.
 start quota --threads 1 --max-jobs-per-conn 3 --max-cancels-per-conn 4 \
-    --max-job-evals 1099511627776 || exit 1
+    --max-job-evals 1099511627776 --max-jobs-memory-total 4096G || exit 1
 greedy quota "$U" 3 4
 stop "$pid"
 
@@ -111,6 +113,21 @@ stop "$pid"
 # fail with EPERM and the memfd's blocks never change.
 start punch || exit 1
 greedy punch "$U" "$pid" 16
+stop "$pid"
+
+# 6. Job memory: 8 cubature jobs from 4 peers (127.0.0.1, .2, .3, a Unix
+# uid), each filling 24 MiB of regions, under max-jobs-memory-total 56M:
+# at most 2 run at once and the rest wait their turn, all answered with
+# the bits of an idle daemon; VmRSS under +56 + 24 MiB.  Without the
+# total all 8 ran at once: VmRSS 5 MB -> 202 MB.  A job whose own bound is
+# over the total is refused.
+# Under ASan (make sanitize) freed blocks sit in its quarantine (256 MB by
+# default), which would count the jobs that ended: a quarantine smaller
+# than one job's workspace lets them go back as glibc's would.
+ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=8"
+export ASAN_OPTIONS
+start jobmem --threads 2 --max-jobs-memory-total 56M || exit 1
+greedy jobmem "$T" "$U" "$pid" 56 24 24
 stop "$pid"
 
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then

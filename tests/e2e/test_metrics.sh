@@ -66,6 +66,14 @@ check(samples.get("qmcd_jobs_accepted_total") == 1 and samples.get("qmcd_jobs_do
 check(fams.get("qmcd_connections_open") == "gauge" and fams.get("qmcd_jobs_open") == "gauge",
       "gauges typed gauge")
 check(fams.get("qmcd_request_latency_seconds") == "histogram", "latency is a histogram")
+# the isolation limits' counters (test_isolation.sh makes them move): typed,
+# and still zero here, where no limit was reached
+lim = ("refused_connections_per_peer", "out_buffer_waits", "refused_jobs_per_conn",
+       "refused_jobs", "refused_cancels_per_conn", "refused_job_memory", "job_memory_waits")
+check(all(fams.get("qmcd_%s_total" % k) == "counter" and samples.get("qmcd_%s_total" % k) == 0
+          == st[k] for k in lim), "the isolation counters are typed counter and at 0")
+check(fams.get("qmcd_job_memory_reserved_bytes") == "gauge" and
+      st["job_memory_reserved_bytes"] == 0, "job_memory_reserved_bytes is a gauge, 0 when idle")
 # the histogram and the daemon's percentile entries are two readings of
 # one histogram: rank = ceil(q n); the p-quantile entry is the top of the
 # fine bucket holding that rank, so every exported edge below it holds

@@ -1,0 +1,199 @@
+/*
+ * test_integrate_memory.c - qmc_integrate_memory_bytes is an upper bound
+ * on what qmc_integrate allocates (qmcd reserves it against
+ * max-jobs-memory-total before a job runs).  The oracle is the allocator
+ * itself: the Makefile links this test with -Wl,--wrap for malloc, calloc,
+ * realloc, aligned_alloc (core/seq.c) and free, so every allocation libqmc makes passes through the
+ * wrappers below, which keep the bytes live and their peak.  Each case
+ * runs one call and checks peak - before <= bound + the part the bound
+ * leaves out by design (the serial runner's block workspace and the
+ * sequence instances: a fixed allowance at these small dimensions), and
+ * that the bound is not vacuous (it is within a small factor of the peak
+ * where the call fills what it may).
+ */
+#define _GNU_SOURCE
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <malloc.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "qmc/integrate.h"
+#include "qmc/testfn.h"
+
+void *__real_malloc(size_t n);
+void *__real_calloc(size_t n, size_t size);
+void *__real_realloc(void *p, size_t n);
+void __real_free(void *p);
+void *__real_aligned_alloc(size_t align, size_t n);
+void *__wrap_aligned_alloc(size_t align, size_t n);
+void *__wrap_malloc(size_t n);
+void *__wrap_calloc(size_t n, size_t size);
+void *__wrap_realloc(void *p, size_t n);
+void __wrap_free(void *p);
+
+static size_t live_bytes, peak_bytes;
+
+static void note(void *p)
+{
+    if (!p)
+        return;
+    live_bytes += malloc_usable_size(p);
+    if (live_bytes > peak_bytes)
+        peak_bytes = live_bytes;
+}
+
+void *__wrap_malloc(size_t n)
+{
+    void *p = __real_malloc(n);
+    note(p);
+    return p;
+}
+
+void *__wrap_calloc(size_t n, size_t size)
+{
+    void *p = __real_calloc(n, size);
+    note(p);
+    return p;
+}
+
+void *__wrap_realloc(void *p, size_t n)
+{
+    size_t old = p ? malloc_usable_size(p) : 0;
+    void *q = __real_realloc(p, n);
+    if (q || n == 0)
+        live_bytes -= old;
+    note(q);
+    return q;
+}
+
+void *__wrap_aligned_alloc(size_t align, size_t n)
+{
+    void *p = __real_aligned_alloc(align, n);
+    note(p);
+    return p;
+}
+
+void __wrap_free(void *p)
+{
+    if (p)
+        live_bytes -= malloc_usable_size(p);
+    __real_free(p);
+}
+
+/* What the bound leaves out at these dimensions (<= 8): the serial
+ * runner's block workspace (256 points x (dims + 2) doubles), a few
+ * sequence instances and messages. */
+#define UNBOUNDED_ALLOWANCE (1u << 20)
+
+typedef struct mem_case {
+    const char *integrand;
+    uint32_t dims;
+    const char *method;
+    double tol_rel;
+    uint64_t max_evals, max_memory;
+    uint64_t n;
+    uint32_t reps;
+    int fills;                   /* 1: the call fills its bound (not vacuous) */
+} mem_case;
+
+static void run_case(const mem_case *c)
+{
+    char why[512];
+    qmc_testfn *fn = NULL;
+    assert_int_equal(qmc_testfn_new(c->integrand, c->dims, NULL, 0, NULL, 0, &fn, why,
+                                    sizeof why), 0);
+    qmc_integrate_spec spec;
+    qmc_integrate_spec_init(&spec);
+    assert_int_equal(qmc_method_parse(c->method, &spec.method), 0);
+    spec.tol_rel = c->tol_rel;
+    spec.max_evals = c->max_evals;
+    spec.max_memory = c->max_memory;
+    if (c->n) {
+        spec.sampling.n = c->n;
+        spec.n_given = 1;
+    }
+    if (c->reps)
+        spec.sampling.reps = c->reps;
+    if (spec.method == QMC_METHOD_RQMC)
+        spec.sampling.scramble = QMC_SCRAMBLE_OWEN;
+    uint64_t bound = qmc_integrate_memory_bytes(&spec, c->dims);
+    qmc_integrate_report rep;
+    size_t before = live_bytes;
+    peak_bytes = live_bytes;
+    int err = qmc_integrate(&spec, qmc_testfn_integrand(fn), NULL, NULL, NULL, &rep, why,
+                            sizeof why);
+    size_t used = peak_bytes - before;
+    print_message("%s %ud %s tol %g budget %llu: %llu evals, peak %zu bytes, bound %llu (%s)\n",
+                  c->integrand, c->dims, c->method, c->tol_rel,
+                  (unsigned long long)c->max_evals, (unsigned long long)rep.res.evals, used,
+                  (unsigned long long)bound,
+                  err ? why : qmc_method_name(rep.method_used));
+    assert_int_equal(err, 0);
+    assert_true(used <= bound + UNBOUNDED_ALLOWANCE);
+    if (c->fills)
+        assert_true(bound <= 4 * (uint64_t)used + UNBOUNDED_ALLOWANCE);
+    qmc_testfn_free(fn);
+}
+
+static void test_rules(void **state)
+{
+    (void)state;
+    static const mem_case cases[] = {
+        /* Cubature refining until its region memory is full. */
+        {"genz-gaussian", 2, "cubature", 1e-300, 4000000, 8u << 20, 0, 0, 1},
+        /* ... or until the budget, below the memory cap. */
+        {"genz-gaussian", 3, "cubature", 1e-300, 200000, 64u << 20, 0, 0, 0},
+        {"genz-gaussian", 3, "clenshaw-curtis", 1e-300, 2000000, 16u << 20, 0, 0, 0},
+        {"genz-gaussian", 4, "gauss-legendre", 0, 100000000, 64u << 20, 16, 0, 0},
+        {"exp", 1, "gauss-kronrod", 1e-12, 100000, 64u << 20, 0, 0, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
+        run_case(&cases[i]);
+}
+
+static void test_sampling(void **state)
+{
+    (void)state;
+    static const mem_case cases[] = {
+        /* Fixed n: one array of exactly its blocks. */
+        {"genz-oscillatory", 4, "rqmc", 0, 100000000, 64u << 20, 1u << 16, 16, 0},
+        /* Adaptive until the budget: rounds double, two arrays live. */
+        {"genz-discontinuous", 3, "rqmc", 1e-300, 1u << 24, 64u << 20, 4096, 16, 1},
+        {"genz-discontinuous", 3, "mc", 1e-300, 1u << 23, 64u << 20, 4096, 0, 0},
+        /* auto: whatever it picks, within what it reserves. */
+        {"genz-discontinuous", 4, "auto", 1e-300, 1u << 22, 64u << 20, 0, 0, 0},
+        {"genz-gaussian", 3, "auto", 1e-300, 1u << 22, 8u << 20, 0, 0, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
+        run_case(&cases[i]);
+}
+
+/* The bound saturates instead of wrapping at an unbounded budget. */
+static void test_saturates(void **state)
+{
+    (void)state;
+    qmc_integrate_spec spec;
+    qmc_integrate_spec_init(&spec);
+    spec.max_evals = UINT64_MAX;
+    spec.tol_rel = 1e-3;
+    spec.method = QMC_METHOD_RQMC;
+    assert_true(qmc_integrate_memory_bytes(&spec, 8) >= UINT64_MAX / 4096);
+    spec.method = QMC_METHOD_CUBATURE;
+    spec.max_memory = UINT64_MAX;
+    assert_true(qmc_integrate_memory_bytes(&spec, 8) > 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rules),
+        cmocka_unit_test(test_sampling),
+        cmocka_unit_test(test_saturates),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
