@@ -45,9 +45,8 @@ void cli_json_bool(FILE *f, const char *key, int v, int comma)
         fputc(',', f);
 }
 
-void cli_json_str(FILE *f, const char *key, const char *v, int comma)
+void cli_json_string(FILE *f, const char *v)
 {
-    key_and_value_start(f, key);
     fputc('"', f);
     for (const char *p = v ? v : ""; *p; p++) {
         unsigned char c = (unsigned char)*p;
@@ -59,6 +58,12 @@ void cli_json_str(FILE *f, const char *key, const char *v, int comma)
             fputc(c, f);
     }
     fputc('"', f);
+}
+
+void cli_json_str(FILE *f, const char *key, const char *v, int comma)
+{
+    key_and_value_start(f, key);
+    cli_json_string(f, v);
     if (comma)
         fputc(',', f);
 }

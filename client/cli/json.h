@@ -23,6 +23,9 @@ void cli_json_bool(FILE *f, const char *key, int v, int comma);
 /* A string; '"' and '\' are escaped, control characters written as
  * \u00XX, other bytes as they are.  NULL is written as "". */
 void cli_json_str(FILE *f, const char *key, const char *v, int comma);
+/* The quoted, escaped string alone (as cli_json_str writes its value), for
+ * callers whose keys are data, such as the daemon's STATS names. */
+void cli_json_string(FILE *f, const char *v);
 /* An array of n numbers, each as cli_json_num writes it. */
 void cli_json_num_array(FILE *f, const char *key, const double *v, size_t n,
                         int comma);

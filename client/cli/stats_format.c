@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json.h"
 #include "stats_format.h"
 
 void cli_stats_print_text(FILE *f, const cli_stat *s, unsigned n)
@@ -25,28 +26,12 @@ void cli_stats_print_text(FILE *f, const cli_stat *s, unsigned n)
         fprintf(f, "%-32s %llu\n", s[i].name, (unsigned long long)s[i].value);
 }
 
-/* Names are protocol text (UTF-8, no NUL): escape what JSON requires. */
-static void json_string(FILE *f, const char *t)
-{
-    fputc('"', f);
-    for (; *t; t++) {
-        unsigned char c = (unsigned char)*t;
-        if (c == '"' || c == '\\')
-            fprintf(f, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(f, "\\u%04x", c);
-        else
-            fputc(c, f);
-    }
-    fputc('"', f);
-}
-
 void cli_stats_print_json(FILE *f, const cli_stat *s, unsigned n)
 {
     fputc('{', f);
     for (unsigned i = 0; i < n; i++) {
         fputs(i ? ", " : "", f);
-        json_string(f, s[i].name);
+        cli_json_string(f, s[i].name); /* protocol text: escape what JSON requires */
         fprintf(f, ": %llu", (unsigned long long)s[i].value);
     }
     fputs("}\n", f);
