@@ -122,6 +122,7 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     qmcd_pool_counts pc; /* the pool's own, kept under its mutex */
     qmcd_pool_counts_get(srv->pool, &pc);
     srv->stats.memory_waits = pc.memory_waits;
+    srv->stats.memory_backfills = pc.memory_backfills;
     srv->stats.memory_reserved = pc.memory_reserved;
     r.u.stats.count = qmcd_stats_entries(&srv->stats, srv->n_conns, srv->n_jobs, entries,
                                          QMC_PROTO_MAX_STATS);

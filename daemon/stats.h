@@ -38,7 +38,8 @@
     X(jobs_refusals, "refused_jobs")                        \
     X(cancel_refusals, "refused_cancels_per_conn")          \
     X(memory_refusals, "refused_job_memory")                \
-    X(memory_waits, "job_memory_waits")
+    X(memory_waits, "job_memory_waits")                     \
+    X(memory_backfills, "job_memory_backfills")
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
