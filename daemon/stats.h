@@ -56,6 +56,7 @@ typedef struct qmcd_stats {
     /* Gauge: bytes max-jobs-memory-total has reserved for running jobs
      * (the pool's; copied in, like memory_waits, when STATS is asked). */
     uint64_t memory_reserved;
+    uint64_t memory_waiting;   /* gauge: 1 while a job waits for its memory */
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;

@@ -82,6 +82,7 @@ static const known_stat known[] = {
     {"jobs_open", 1, "Jobs queued or running now."},
     {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
                                      "jobs now."},
+    {"job_memory_waiting", 1, "1 while a job waits for its memory (others may backfill)."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };

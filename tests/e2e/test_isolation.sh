@@ -130,6 +130,16 @@ start jobmem --threads 2 --max-jobs-memory-total 56M || exit 1
 greedy jobmem "$T" "$U" "$pid" 56 24 24
 stop "$pid"
 
+# 7. Backfill: a 40 MiB job runs under max-jobs-memory-total 64M, a second
+# one waits, 3 small jobs of another peer finish meanwhile
+# (job-memory-overtakes 3), the 4th waits until the big one has started;
+# STATS counts the backfills and waits exactly and accepted = done +
+# failed + cancelled + dropped + open.
+start backfill --threads 2 --max-jobs-memory-total 64M --max-job-evals 2199023255552 \
+    --job-memory-overtakes 3 || exit 1
+greedy backfill "$T" "$U" 3
+stop "$pid"
+
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
     bad "sanitizer report in a daemon log"
 else ok; fi
