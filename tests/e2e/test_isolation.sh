@@ -12,6 +12,7 @@ set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
 PY=/usr/bin/python3
 GREEDY="$(cd "$(dirname "$0")" && pwd)/greedypeer.py"
+BACKFILL="$(cd "$(dirname "$0")" && pwd)/backfillpeer.py"
 tmp=$(mktemp -d)
 pids=""
 cleanup() {
@@ -24,9 +25,12 @@ fail=0
 ok() { pass=$((pass + 1)); }
 bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
 
-# greedy SCENARIO ARGS...: runs a greedypeer scenario, counts its lines.
+# greedy SCENARIO ARGS...: runs a greedypeer scenario (backfillpeer's for
+# backfill), counts its lines.
 greedy() {
-    "$PY" "$GREEDY" "$@" > "$tmp/greedy.out" 2>&1
+    script=$GREEDY
+    [ "$1" = backfill ] && script=$BACKFILL
+    "$PY" "$script" "$@" > "$tmp/greedy.out" 2>&1
     n_ok=$(grep -c '^ok ' "$tmp/greedy.out")
     n_bad=$(grep -c '^FAIL ' "$tmp/greedy.out")
     pass=$((pass + n_ok))
