@@ -355,6 +355,13 @@ static qmc_method auto_choice(const qmc_integrate_spec *spec, const qmc_integran
     return QMC_METHOD_RQMC;
 }
 
+qmc_method qmc__auto_pick(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g)
+{
+    char reason[8]; /* the choice only */
+    return auto_choice(spec, f, g, reason, sizeof reason);
+}
+
 /*
  * auto's RQMC may run over a VEGAS map (vegas_map.h): a pilot trains it
  * (pilot_evals: a tenth of the budget or what the RQMC rounds would leave

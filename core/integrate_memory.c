@@ -99,23 +99,55 @@ static uint64_t adaptive_peak_bytes(uint64_t n0, uint64_t reps, uint64_t per_poi
 
 /*
  * auto's RQMC (integrate.c's auto_rqmc): 8 replicates from its first n
- * (or the caller's), adaptive, with or without a control variate, and
- * from QMC__AUTO_MAP_MIN_BUDGET on a VEGAS map that lives through the
+ * (or the caller's), adaptive (a control variate doubles a point's
+ * evaluations), and, when may_map, from QMC__AUTO_MAP_MIN_BUDGET on a
+ * VEGAS map that lives through the
  * run (its training buffers only through the pilot).  The budget it runs
  * on is at most spec->max_evals (the pilot's and a rule's evaluations
  * come off it), which adaptive_peak_bytes covers with every smaller one.
  */
-static uint64_t auto_rqmc_bytes(const qmc_integrate_spec *spec, uint32_t dims)
+static uint64_t auto_rqmc_bytes(const qmc_integrate_spec *spec, uint32_t dims, int may_map,
+                                int control)
 {
     /* Its own first n is a power of two from 16 to 4096 (smaller for a
      * smaller budget), so its rounds are powers of two from 16 on; a
      * control variate doubles the evaluations a point. */
     const uint64_t n0 = spec->n_given ? spec->sampling.n : qmc__auto_min_first_n();
-    uint64_t sums = adaptive_peak_bytes(n0, QMC_SAMPLING_MIN_REPS, 1, spec->max_evals);
+    uint64_t sums = adaptive_peak_bytes(n0, QMC_SAMPLING_MIN_REPS, control ? 2 : 1,
+                                        spec->max_evals);
     uint64_t map = 0, train = 0;
-    if (spec->max_evals >= QMC__AUTO_MAP_MIN_BUDGET)
+    if (may_map && spec->max_evals >= QMC__AUTO_MAP_MIN_BUDGET)
         qmc__vmap_bytes(dims, &map, &train);
     return sat_add(map, max_u64(train, sums));
+}
+
+static uint64_t rule_bytes(const qmc_integrate_spec *spec, uint32_t dims, qmc_method m)
+{
+    qmc_quad_gk_opts g;
+    qmc_quad_gk_opts_init(&g);
+    switch (m) {
+    case QMC_METHOD_GAUSS_KRONROD:
+        return qmc_quad_gk_workspace_bytes(g.max_subdiv);
+    case QMC_METHOD_CLENSHAW_CURTIS:
+        return qmc__cubature_bytes(spec, dims, 1);
+    case QMC_METHOD_CUBATURE:
+        return qmc__cubature_bytes(spec, dims, 0);
+    default:
+        return 0;
+    }
+}
+
+uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                                        const qmc_integrand *g)
+{
+    if (spec->method != QMC_METHOD_AUTO || !f)
+        return qmc_integrate_memory_bytes(spec, f ? f->dims : 1);
+    /* The one rule auto picks for this integrand (qmc__auto_pick is its
+     * own choice), then possibly RQMC, directly or after the rule; a map
+     * only without a control variate and without jumps (auto_map). */
+    uint64_t rule = rule_bytes(spec, f->dims, qmc__auto_pick(spec, f, g));
+    int may_map = !g && f->smoothness < QMC_SMOOTH_DISCONTINUOUS;
+    return max_u64(rule, auto_rqmc_bytes(spec, f->dims, may_map, g != NULL));
 }
 
 uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dims)
@@ -143,13 +175,14 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
          * which follows an unresolved rule: the rule's workspace is freed
          * before it starts, so the larger of the two. */
         uint64_t rule = 0;
-        if (qmc__auto_may_use(QMC_METHOD_GAUSS_KRONROD, dims, spec->max_evals))
-            rule = qmc_quad_gk_workspace_bytes(g.max_subdiv);
-        if (qmc__auto_may_use(QMC_METHOD_CLENSHAW_CURTIS, dims, spec->max_evals))
-            rule = max_u64(rule, qmc__cubature_bytes(spec, dims, 1));
-        if (qmc__auto_may_use(QMC_METHOD_CUBATURE, dims, spec->max_evals))
-            rule = max_u64(rule, qmc__cubature_bytes(spec, dims, 0));
-        return max_u64(rule, auto_rqmc_bytes(spec, dims));
+        const qmc_method rules[] = {QMC_METHOD_GAUSS_KRONROD, QMC_METHOD_CLENSHAW_CURTIS,
+                                    QMC_METHOD_CUBATURE};
+        for (size_t i = 0; i < sizeof rules / sizeof rules[0]; i++)
+            if (qmc__auto_may_use(rules[i], dims, spec->max_evals))
+                rule = max_u64(rule, rule_bytes(spec, dims, rules[i]));
+        /* Without the integrand: its RQMC with no control variate (the
+         * longer rounds) and a map. */
+        return max_u64(rule, auto_rqmc_bytes(spec, dims, 1, 0));
     }
     default:
         return sampling_bytes(spec);
