@@ -27,7 +27,7 @@
  * every other peer.
  *
  * Job memory: each task states what it may allocate (mem_bytes, from
- * qmc_integrate_memory_bytes) and reserves it when it takes a runner; the
+ * qmc_integrate_memory_bytes_for) and reserves it when it takes a runner; the
  * reservations of the tasks on runners stay within mem_total
  * (max-jobs-memory-total).  The first task whose turn comes while its
  * memory does not fit becomes the waiter; it starts as soon as its memory
