@@ -59,6 +59,9 @@ int cli_next_option(const char *cmd, int argc, char **argv,
 
 /* Writes all of buf to f; prints an error and returns -1 on failure. */
 int cli_write_all(FILE *f, const void *buf, size_t bytes, const char *what);
+/* Seconds on the monotonic clock: what every run's wall time is measured
+ * by (differences only). */
+double cli_now_seconds(void);
 
 /* Subcommands: each takes argv with argv[0] the subcommand name. */
 int cli_cmd_points(int argc, char **argv);

@@ -1,6 +1,7 @@
 /*
  * cli_common.c - what every qmc subcommand shares: error lines, number
- * parsing, the sequence options, and checked writes.
+ * parsing, the sequence options, checked writes, and the clock runs are
+ * timed by.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -8,6 +9,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "cli.h"
 
@@ -196,4 +198,11 @@ int cli_next_option(const char *cmd, int argc, char **argv,
     *name = longopts[idx].name;
     *arg = optarg;
     return 1;
+}
+
+double cli_now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }

@@ -14,7 +14,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli.h"
 #include "outdir.h"
@@ -253,13 +252,6 @@ typedef struct stab_ctx {
     atomic_size_t next;
 } stab_ctx;
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static void copy_text(char *dst, size_t bytes, const char *src)
 {
     snprintf(dst, bytes, "%s", src);
@@ -281,7 +273,7 @@ static void run_cell(stab_ctx *x, size_t index)
     qmc_integrate_report *reps = calloc(seeds, sizeof *reps);
     char (*whys)[160] = calloc(seeds, sizeof *whys);
     int *refused = calloc(seeds, sizeof *refused);
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     if (!verdicts || !reps || !whys || !refused) {
         cell->cls = QMC_STAB_REFUSED;
         copy_text(cell->reason, sizeof cell->reason, "out of memory");
@@ -321,7 +313,7 @@ static void run_cell(stab_ctx *x, size_t index)
               refused[shown] ? "" : qmc_method_name(reps[shown].method_used));
     copy_text(cell->reason, sizeof cell->reason, refused[shown] ? whys[shown] : "");
 done:
-    cell->seconds = now_seconds() - t0;
+    cell->seconds = cli_now_seconds() - t0;
     free(verdicts), free(reps), free(whys), free(refused);
 }
 
@@ -390,7 +382,7 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
     }
     stab_ctx x = {.mx = mx, .o = o, .rows = rows};
     atomic_init(&x.next, 0);
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     unsigned n = o->threads;
     pthread_t *ids = calloc(n, sizeof *ids);
     unsigned started = 0;
@@ -402,7 +394,7 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
     for (unsigned i = 0; i < started; i++)
         pthread_join(ids[i], NULL);
     free(ids);
-    mx->seconds = now_seconds() - t0;
+    mx->seconds = cli_now_seconds() - t0;
     for (size_t i = 0; i < total; i++) {
         mx->count[mx->cells[i].cls]++;
         mx->ok_flagged_runs += mx->cells[i].tally.ok_flagged;

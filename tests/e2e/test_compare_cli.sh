@@ -146,6 +146,10 @@ expect_error "no closed form" --scene "$SCENES/phong_sphere.scene" --reference e
 expect_error "line 1, column 1" --scene /dev/null --out "$tmp/bad"
 expect_error "either --integrand or --scene" $JOB --scene x --out "$tmp/bad"
 expect_error "--reps" $JOB --reps 0 --out "$tmp/bad"
+# the job's lists are read as qmc integrate reads them: a trailing comma
+# is an empty item, not the end of the list
+expect_error "--a: bad list '3,4,'" --integrand genz-gaussian --dims 2 --a 3,4, --out "$tmp/bad"
+expect_error "--u: empty list" --integrand genz-gaussian --dims 2 --u "" --out "$tmp/bad"
 # an existing DIR is left exactly as it was
 "$QMC" compare $JOB --methods bogus --out "$tmp/keep" > /dev/null 2>&1
 [ "$(ls -A "$tmp/keep")" = "old.txt" ] && [ "$(cat "$tmp/keep/old.txt")" = precious ] && ok ||
