@@ -206,3 +206,23 @@ double cli_now_seconds(void)
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+
+int cli_list_next(const char **p, const char **item, size_t *len)
+{
+    if (**p == '\0')
+        return 0;
+    const char *comma = strchr(*p, ',');
+    *item = *p;
+    *len = comma ? (size_t)(comma - *p) : strlen(*p);
+    *p += *len + (comma ? 1 : 0);
+    return 1;
+}
+
+int cli_list_copy(const char *item, size_t len, char *buf, size_t bytes)
+{
+    if (len == 0 || len >= bytes)
+        return -1;
+    memcpy(buf, item, len);
+    buf[len] = '\0';
+    return 0;
+}

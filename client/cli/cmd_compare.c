@@ -185,23 +185,20 @@ static int parse_budgets(const char *text, cli_cmp *c)
 static int parse_methods(const char *list, cli_cmp *c)
 {
     c->n_methods = 0;
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+    const char *p = list, *it;
+    size_t len;
+    while (cli_list_next(&p, &it, &len)) {
         char item[64], why[256];
-        if (len == 0 || len >= sizeof item)
+        if (cli_list_copy(it, len, item, sizeof item))
             return cli_error("--methods: bad list '%s'", list), -1;
         if (c->n_methods == CLI_CMP_MAX_METHODS)
             return cli_error("--methods: more than %d methods", CLI_CMP_MAX_METHODS), -1;
-        memcpy(item, p, len);
-        item[len] = '\0';
         if (cli_method_parse(item, &c->methods[c->n_methods], why, sizeof why) != 0)
             return cli_error("--methods: %s", why), -1;
         for (uint32_t i = 0; i < c->n_methods; i++)
             if (strcmp(c->methods[i].name, c->methods[c->n_methods].name) == 0)
                 return cli_error("--methods: %s is listed twice", c->methods[i].name), -1;
         c->n_methods++;
-        p += len + (comma ? 1 : 0);
     }
     return c->n_methods ? 0 : (cli_error("--methods: empty list"), -1);
 }

@@ -74,28 +74,24 @@ typedef struct stab_opts {
 /* Is name in the comma-separated list? */
 static int in_list(const char *list, const char *name)
 {
-    size_t len = strlen(name);
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t n = comma ? (size_t)(comma - p) : strlen(p);
-        if (n == len && strncmp(p, name, n) == 0)
+    const size_t len = strlen(name);
+    const char *p = list, *it;
+    size_t n;
+    while (cli_list_next(&p, &it, &n))
+        if (n == len && strncmp(it, name, n) == 0)
             return 1;
-        p += n + (comma ? 1 : 0);
-    }
     return 0;
 }
 
 /* Every item of list must name one of names[] (via canon for methods). */
 static int check_list(const char *opt, const char *list, int is_method)
 {
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t n = comma ? (size_t)(comma - p) : strlen(p);
+    const char *p = list, *it;
+    size_t n;
+    while (cli_list_next(&p, &it, &n)) {
         char item[64];
-        if (n == 0 || n >= sizeof item)
+        if (cli_list_copy(it, n, item, sizeof item))
             return cli_error("%s: bad list '%s'", opt, list), -1;
-        memcpy(item, p, n);
-        item[n] = '\0';
         int found = 0;
         if (is_method) {
             cli_method m;
@@ -117,7 +113,6 @@ static int check_list(const char *opt, const char *list, int is_method)
             if (!found)
                 return cli_error("%s: no case named '%s'", opt, item), -1;
         }
-        p += n + (comma ? 1 : 0);
     }
     return 0;
 }
@@ -356,17 +351,15 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
             goto fail;
         }
         int want = !o->methods;
-        if (o->methods)
-            for (const char *p = o->methods; *p && !want;) {
-                const char *comma = strchr(p, ',');
-                size_t n = comma ? (size_t)(comma - p) : strlen(p);
-                char item[64];
-                cli_method other;
-                snprintf(item, sizeof item, "%.*s", (int)n, p);
-                want = cli_method_parse(item, &other, why, sizeof why) == 0 &&
-                       strcmp(other.name, m.name) == 0;
-                p += n + (comma ? 1 : 0);
-            }
+        const char *p = o->methods ? o->methods : "", *it;
+        size_t n;
+        while (!want && cli_list_next(&p, &it, &n)) {
+            char item[64];
+            cli_method other;
+            snprintf(item, sizeof item, "%.*s", (int)n, it);
+            want = cli_method_parse(item, &other, why, sizeof why) == 0 &&
+                   strcmp(other.name, m.name) == 0;
+        }
         if (want)
             mx->methods[mx->n_methods++] = m;
     }

@@ -28,21 +28,17 @@ void cli_job_options_init(cli_integrate *o)
 static int parse_list(const char *opt, const char *text, double *out, size_t *n)
 {
     *n = 0;
-    const char *p = text;
-    while (*p) {
+    const char *p = text, *it;
+    size_t len;
+    while (cli_list_next(&p, &it, &len)) {
         if (*n == CLI_MAX_LIST)
             return cli_error("%s: more than %d values", opt, CLI_MAX_LIST), -1;
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
         char item[64];
-        if (len == 0 || len >= sizeof item)
+        if (cli_list_copy(it, len, item, sizeof item))
             return cli_error("%s: bad list '%s'", opt, text), -1;
-        memcpy(item, p, len);
-        item[len] = '\0';
         if (cli_parse_double(opt, item, &out[(*n)++]))
             return -1;
-        p += len + (comma ? 1 : 0);
-        if (comma && *p == '\0')
+        if (it[len] == ',' && *p == '\0')
             return cli_error("%s: bad list '%s'", opt, text), -1;
     }
     if (*n == 0)
