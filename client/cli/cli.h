@@ -95,6 +95,10 @@ int cli_remote_take(int *argc, char **argv, const char **endpoint);
 int cli_remote_connect(const char *endpoint, qmc_client **out);
 /* Prints "qmc: <prefix><the client's message>" and returns CLI_EXIT_FAIL. */
 int cli_remote_fail(const qmc_client *c, int err, const char *prefix);
+/* Refuses an in-process option given with --connect: prints "OPTION is
+ * an in-process option: the daemon runs WHAT on its own pool (drop it, or
+ * --connect '' to run here)" and returns CLI_EXIT_FAIL. */
+int cli_remote_in_process_only(const char *option, const char *what);
 /* Help text for --connect. */
 extern const char cli_remote_help[];
 

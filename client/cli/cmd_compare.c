@@ -355,8 +355,7 @@ int cli_cmd_compare(int argc, char **argv)
     if (r != 0)
         return r > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     if (endpoint && o.have_threads)
-        return cli_error("--threads is an in-process option: the daemon runs each job on its "
-                         "own pool (drop it, or --connect '' to run here)");
+        return cli_remote_in_process_only("--threads", "each job");
     cli_cmp *c = calloc(1, sizeof *c);
     if (!c)
         return cli_error("out of memory");

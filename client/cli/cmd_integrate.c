@@ -272,9 +272,7 @@ int cli_cmd_integrate(int argc, char **argv)
     if (r != 0)
         return r > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     if (endpoint && (o.part_p || o.threads > 1))
-        return cli_error("--%s is an in-process option: the daemon runs the whole job on "
-                         "its own pool (drop it, or --connect '' to run here)",
-                         o.part_p ? "part" : "threads");
+        return cli_remote_in_process_only(o.part_p ? "--part" : "--threads", "the whole job");
     /* The problem is built here in remote mode too: the same checks and
      * messages before anything is sent, and the integrand's known
      * integral of |f| and reference for the report. */
