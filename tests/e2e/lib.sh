@@ -29,6 +29,10 @@
 #                           "FAIL ..." lines to fail, and prints the latter;
 #                           1 if it has neither (a peer that printed no
 #                           check at all: the caller says which).
+#   run_peer SCRIPT SCENARIO ARGS...  runs the Python peer SCRIPT (with
+#                           /usr/bin/python3) on SCENARIO ARGS, its output in
+#                           $tmp/peer.out, and tallies it; a peer that printed
+#                           no check at all is a failure naming the scenario.
 #   wait_file FILE [STEPS]  polls in 50 ms steps, at most STEPS (default
 #                           200, 10 s), until FILE exists; 0 if it does.
 #   wait_gone PID [STEPS]   polls in 50 ms steps, at most STEPS (default
@@ -84,6 +88,14 @@ tally() {
     fail=$((fail + e2e_bad))
     grep '^FAIL ' "$1"
     [ "$e2e_ok" -gt 0 ] || [ "$e2e_bad" -gt 0 ]
+}
+
+run_peer() {
+    e2e_script=$1
+    shift
+    /usr/bin/python3 "$e2e_script" "$@" > "$tmp/peer.out" 2>&1
+    tally "$tmp/peer.out" ||
+        bad "$(basename "$e2e_script" .py) $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
 }
 
 wait_file() {

@@ -10,15 +10,13 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 : "${QMCD:?QMCD must name the qmcd binary}"
-PY=/usr/bin/python3
 PEER="$(cd "$(dirname "$0")" && pwd)/qmcpeer.py"
 . "$(dirname "$0")/lib.sh"
 
 SOCK="$tmp/qmcd.sock"
 start main --threads 1 --listen "unix:$SOCK" || finish
 
-"$PY" "$PEER" flags_compat "unix:$SOCK" > "$tmp/peer.out" 2>&1
-tally "$tmp/peer.out" || bad "qmcpeer flags_compat printed nothing: $(head -c 300 "$tmp/peer.out")"
+run_peer "$PEER" flags_compat "unix:$SOCK"
 
 # The library's client negotiates version 3 and decodes for it: the flag
 # arrives, and with it the JSON key.

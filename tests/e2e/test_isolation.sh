@@ -10,15 +10,11 @@
 # Env: QMC, QMCD (binaries), BUILD.  Prints "N passed, M failed".
 set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
-PY=/usr/bin/python3
 GREEDY="$(cd "$(dirname "$0")" && pwd)/greedypeer.py"
 . "$(dirname "$0")/lib.sh"
 
 # greedy SCENARIO ARGS...: runs a greedypeer scenario, counts its lines.
-greedy() {
-    "$PY" "$GREEDY" "$@" > "$tmp/greedy.out" 2>&1
-    tally "$tmp/greedy.out" || bad "greedy $1 printed nothing: $(head -c 300 "$tmp/greedy.out")"
-}
+greedy() { run_peer "$GREEDY" "$@"; }
 
 # serve NAME ARGS...: lib.sh's start, on its own Unix socket and a loopback
 # port; sets $pid, $U (the socket) and $T (the TCP address).
