@@ -16,7 +16,8 @@
 #             empty variable is skipped): for a test that checks its
 #             daemon's exit status and clears the variable once it has.
 #   cleanup   the EXIT trap calls it by name: a test that must clean up
-#             still otherwise redefines cleanup() after sourcing.
+#             still otherwise redefines cleanup() after sourcing.  SIGINT
+#             and SIGTERM exit the test, so cleanup runs then too.
 #   pass, fail  the counters; `ok` counts a pass, `bad MSG` a failure and
 #             prints "FAIL: MSG".
 #
@@ -64,6 +65,8 @@ cleanup() {
     if [ -n "${KEEP_TMP:-}" ]; then echo "kept $tmp"; else rm -rf "$tmp"; fi
 }
 trap cleanup EXIT
+# An interrupted test exits, so that the EXIT trap still stops its daemons.
+trap 'exit 1' INT TERM
 pass=0
 fail=0
 ok() { pass=$((pass + 1)); }

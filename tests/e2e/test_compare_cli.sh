@@ -18,7 +18,6 @@ set -u
 # The daemon in $pid gets SIGTERM at exit unless the test has stopped it.
 pid=
 term_vars=pid
-trap 'exit 1' INT TERM
 unset QMC_ENDPOINT
 PY=/usr/bin/python3
 

@@ -18,7 +18,6 @@ set -u
 : "${BUILD:?set BUILD to the build directory}"
 PY=/usr/bin/python3
 . "$(dirname "$0")/lib.sh"
-trap 'exit 1' INT TERM
 
 # ---- known answers ------------------------------------------------------------
 # The first 8 points of Sobol' in 3D (Joe & Kuo, new-joe-kuo-6.21201).
