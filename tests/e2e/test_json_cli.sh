@@ -86,22 +86,7 @@ done <"$TMP/scipy.txt"
 
 # star: exact in 2D (brute force over the grid of critical boxes), a lower
 # bound above it once the boxes are too many; stdin works with --json.
-"$PY" - "$TMP/star.csv" "$TMP/star.txt" <<'PYEOF'
-import sys
-import numpy as np
-x = np.floor(np.random.default_rng(5).random((30, 2)) * 9) / 8
-with open(sys.argv[1], "w") as f:
-    for row in x:
-        f.write("%r,%r\n" % (float(row[0]), float(row[1])))
-gx = sorted(set(x[:, 0]) | {1.0}); gy = sorted(set(x[:, 1]) | {1.0})
-best = 0.0
-for a in gx:
-    for b in gy:
-        o = np.sum((x[:, 0] < a) & (x[:, 1] < b)) / len(x)
-        c = np.sum((x[:, 0] <= a) & (x[:, 1] <= b)) / len(x)
-        best = max(best, a * b - o, c - a * b)
-open(sys.argv[2], "w").write("%r\n" % best)
-PYEOF
+"$PY" "$(dirname "$0")/star2d.py" 5 30 9 "$TMP/star.csv" "$TMP/star.txt"
 "$QMC" discrepancy --method star --json <"$TMP/star.csv" >"$TMP/d.json" 2>"$TMP/err"
 check "star 2D" "$TMP/d.json" '
 want = float(sys.argv[1])
