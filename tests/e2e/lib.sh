@@ -18,6 +18,7 @@
 #   cleanup   the EXIT trap calls it by name: a test that must clean up
 #             still otherwise redefines cleanup() after sourcing.  SIGINT
 #             and SIGTERM exit the test, so cleanup runs then too.
+#   QMC_ENDPOINT and QMC_AUTH_KEY_FILE are unset (a test sets its own).
 #   pass, fail  the counters; `ok` counts a pass, `bad MSG` a failure and
 #             prints "FAIL: MSG".
 #
@@ -67,6 +68,9 @@ cleanup() {
 trap cleanup EXIT
 # An interrupted test exits, so that the EXIT trap still stops its daemons.
 trap 'exit 1' INT TERM
+# The caller's own daemon and key are not the test's: with these set every
+# qmc command would go to it.  A test that wants them sets them itself.
+unset QMC_ENDPOINT QMC_AUTH_KEY_FILE
 pass=0
 fail=0
 ok() { pass=$((pass + 1)); }

@@ -18,7 +18,6 @@ set -u
 # The daemon in $pid gets SIGTERM at exit unless the test has stopped it.
 pid=
 term_vars=pid
-unset QMC_ENDPOINT
 PY=/usr/bin/python3
 
 JOB="--integrand genz-gaussian --dims 2 --a 3,4 --u 0.3,0.6"

@@ -24,7 +24,6 @@ set -u
 # stopped it itself and checked the exit status.
 pid=
 term_vars=pid
-unset QMC_ENDPOINT
 
 if [ ! -x "$QMCD" ]; then
     echo "test_remote: no daemon at $QMCD"
