@@ -18,7 +18,10 @@
  * meets the tolerance or the next level would pass the evaluation budget
  * or the workspace.  Axes start at level 2 (5 points) when 5^d fits an
  * eighth of the budget, else at level 1: an axis whose two lowest rules
- * agree by chance would otherwise never be raised.
+ * agree by chance would otherwise never be raised.  While every node
+ * returns 0 the axes are raised in turn, lowest level first, within a
+ * quarter of the budget: a search for mass between the nodes (a narrow
+ * peak), since levels agreeing at 0 are no evidence of anything.
  *
  * The error: E_k is the error of the lower rule along k, far above the
  * error of Q(m) once the levels converge (each level roughly squares the
@@ -519,6 +522,7 @@ int qmc_cubature_cc(const qmc_integrand *f, const qmc_cubature_opts *opts, void 
         prev_r[j] = 1.0;
     }
     double q = 0.0, absq = 0.0, err = INFINITY;
+    uint64_t budget = opts->max_evals; /* halved by a search for mass */
     uint32_t flags = 0;
     while (!s.stopped) {
         if (s.nonfinite) {
@@ -534,6 +538,29 @@ int qmc_cubature_cc(const qmc_integrand *f, const qmc_cubature_opts *opts, void 
             err += e[j] * extrapolation(e[j], prev_e[j], prev_r[j]);
             if (e[j] > e[worst] || (e[j] == e[worst] && s.level[j] < s.level[worst]))
                 worst = j;
+        }
+        /* Every node returned 0: the levels agree at 0 and say nothing (a
+         * peak between the nodes, or a zero integrand).  Look for mass
+         * first - raise the axes in turn, the lowest level first - within
+         * a quarter of the budget, so that auto keeps the rest for RQMC
+         * when the search fails (the result is then flagged unresolved by
+         * qmc_integrate's node watch).  A 2D Gaussian peak a = 400 that 25
+         * nodes missed (the issue's 0 +- 0) is found and resolved.  A run that had to search
+         * keeps to half the budget in all: if what it found stays
+         * unresolved, auto still has half for RQMC (integrate.c). */
+        if (absq == 0.0) {
+            budget = opts->max_evals / 2;
+            uint32_t low = 0;
+            for (uint32_t j = 1; j < d; j++)
+                if (s.level[j] < s.level[low])
+                    low = j;
+            uint64_t next = s.size / s.npts[low] * level_points(s.level[low] + 1);
+            if (s.level[low] + 1 > top || next > max_points || next > opts->max_evals / 4)
+                break;
+            prev_e[low] = 0.0; /* no history: agreeing at 0 is no rate */
+            levels_upto(&s.tab, s.level[low] + 1, s.spare);
+            refine(&s, low);
+            continue;
         }
         /* The slope pass costs about a contraction; it is needed only
          * near a stop (the floor is rarely 2^20 x its summing part). */
@@ -554,7 +581,7 @@ int qmc_cubature_cc(const qmc_integrand *f, const qmc_cubature_opts *opts, void 
             flags |= QMC_FLAG_NOT_CONVERGED;
             break;
         }
-        if (s.evals + (next - s.size) > opts->max_evals) {
+        if (s.evals + (next - s.size) > budget) {
             flags |= QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
             break;
         }

@@ -160,6 +160,33 @@ static void test_peaks_floor_and_memory_bound(void **state)
     assert_true(fabs(o.rep.res.estimate - truth) <= o.rep.res.error);
 }
 
+/* More work, not a flag: the issue's example 1, a 2D peak a = 400 that
+ * the first 5 x 5 nodes miss (0 +- 0 after 25 evaluations), is now looked
+ * for - the axes raised in turn while every node returns 0 - and found,
+ * by clenshaw-curtis and by auto, which no longer needs RQMC for it. */
+static void test_search_for_mass(void **state)
+{
+    (void)state;
+    const double a2[] = {400, 400}, u2[] = {0.123, 0.777};
+    const double truth = gaussian_truth(2, a2, u2);
+    run_out o = run_au("genz-gaussian", 2, a2, u2, QMC_METHOD_CLENSHAW_CURTIS, NULL);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.res.flags, 0);
+    assert_true(o.rep.res.evals > 25);
+    assert_true(fabs(o.rep.res.estimate - truth) <= o.rep.res.error);
+    o = run_au("genz-gaussian", 2, a2, u2, QMC_METHOD_AUTO, NULL);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_CLENSHAW_CURTIS);
+    assert_int_equal(o.rep.res.flags, 0);
+    ASSERT_COVERS_OR_FLAGGED(o, truth);
+    assert_true(fabs(o.rep.res.estimate - truth) <= o.rep.res.error);
+    /* A peak narrower than the finest grid (1D, a = 30000, 4097 nodes):
+     * the search finds only its tail, and the answer stays flagged. */
+    const double a1[] = {30000}, u1[] = {0.37};
+    o = run_au("genz-gaussian", 1, a1, u1, QMC_METHOD_CLENSHAW_CURTIS, NULL);
+    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
+    ASSERT_COVERS_OR_FLAGGED(o, gaussian_truth(1, a1, u1));
+}
+
 /* The control: a smooth problem stays unflagged and the extra work stays
  * within the level-4 grid auto already budgets for (17^5). */
 static void test_smooth_control(void **state)
@@ -182,6 +209,7 @@ int main(void)
         cmocka_unit_test(test_auto_one_ratio_is_not_evidence),
         cmocka_unit_test(test_auto_ratio_after_rise),
         cmocka_unit_test(test_peaks_floor_and_memory_bound),
+        cmocka_unit_test(test_search_for_mass),
         cmocka_unit_test(test_smooth_control),
     };
     return cmocka_run_group_tests_name("stability-cc", tests, NULL, NULL);
