@@ -133,6 +133,9 @@ $(BUILD)/tests/test_%: tests/unit/test_%.c $(UNIT_HELPER) $(ALL_LIBS)
 $(BUILD)/tests/test_peers: UNIT_DAEMON_OBJ := $(BUILD)/daemon/peers.o
 $(BUILD)/tests/test_peers: UNIT_DAEMON_INC := -Idaemon
 $(BUILD)/tests/test_peers: $(BUILD)/daemon/peers.o
+$(BUILD)/tests/test_pool: UNIT_DAEMON_OBJ := $(BUILD)/daemon/pool.o $(BUILD)/daemon/log.o
+$(BUILD)/tests/test_pool: UNIT_DAEMON_INC := -Idaemon
+$(BUILD)/tests/test_pool: $(BUILD)/daemon/pool.o $(BUILD)/daemon/log.o
 # test_integrate_memory counts libqmc's allocations through wrappers.
 $(BUILD)/tests/test_integrate_memory: UNIT_DAEMON_OBJ := \
   -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc,--wrap=free

@@ -275,6 +275,38 @@ static uint64_t cc_full_grid(uint32_t d)
     return p;
 }
 
+/* The budget conditions of auto's rules, shared with the memory bound
+ * (integrate_memory.h), so that the bound covers exactly the rules auto can
+ * reach: Clenshaw-Curtis when the budget buys 17 points an axis, cubature
+ * when it buys min_regions regions. */
+static int cc_affordable(uint32_t d, uint64_t budget)
+{
+    return d <= QMC_CC_MAX_DIMS && budget >= cc_full_grid(d);
+}
+
+static int cubature_affordable(uint32_t d, uint64_t budget, uint64_t min_regions)
+{
+    const uint64_t region = qmc_cubature_region_evals(d);
+    return region > 0 && budget / min_regions >= region;
+}
+
+int qmc__auto_may_use(qmc_method m, uint32_t dims, uint64_t budget)
+{
+    switch (m) {
+    /* In 1 dimension an integrand smooth enough for a rule, without a
+     * control variate, always gets Gauss-Kronrod first. */
+    case QMC_METHOD_GAUSS_KRONROD:
+        return dims == 1;
+    case QMC_METHOD_CLENSHAW_CURTIS:
+        return dims > 1 && cc_affordable(dims, budget);
+    case QMC_METHOD_CUBATURE: /* the analytic case reaches furthest */
+        return dims > 1 && dims <= QMC_AUTO_CUBATURE_MAX_DIMS &&
+               cubature_affordable(dims, budget, 1);
+    default:
+        return m == QMC_METHOD_RQMC;
+    }
+}
+
 static qmc_method auto_choice(const qmc_integrate_spec *spec, const qmc_integrand *f,
                               const qmc_integrand *g, char *reason, size_t bytes)
 {
@@ -287,14 +319,13 @@ static qmc_method auto_choice(const qmc_integrate_spec *spec, const qmc_integran
         qmc__msg_str(&m, "gauss-kronrod: 1 dimension and a smooth integrand");
         return QMC_METHOD_GAUSS_KRONROD;
     }
-    if (!g && analytic && d <= QMC_CC_MAX_DIMS && spec->max_evals >= cc_full_grid(d)) {
+    if (!g && analytic && cc_affordable(d, spec->max_evals)) {
         qmc__msg_set(&m, "clenshaw-curtis: ", d, " dimensions, an integrand declared smooth and "
                      "a budget for 17 points an axis (17^d)");
         return QMC_METHOD_CLENSHAW_CURTIS;
     }
-    const uint64_t region = qmc_cubature_region_evals(d);
     const uint64_t min_regions = analytic ? 1 : QMC_AUTO_MIN_REGIONS;
-    const int affordable = region > 0 && spec->max_evals / min_regions >= region;
+    const int affordable = cubature_affordable(d, spec->max_evals, min_regions);
     const uint32_t max_dims = analytic ? QMC_AUTO_CUBATURE_MAX_DIMS
                                        : QMC_AUTO_CONTINUOUS_MAX_DIMS;
     if (!g && smooth && d <= max_dims && affordable) {
@@ -324,6 +355,13 @@ static qmc_method auto_choice(const qmc_integrate_spec *spec, const qmc_integran
     return QMC_METHOD_RQMC;
 }
 
+qmc_method qmc__auto_pick(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                          const qmc_integrand *g)
+{
+    char reason[8]; /* the choice only */
+    return auto_choice(spec, f, g, reason, sizeof reason);
+}
+
 /*
  * auto's RQMC may run over a VEGAS map (vegas_map.h): a pilot trains it
  * (pilot_evals: a tenth of the budget or what the RQMC rounds would leave
@@ -344,7 +382,9 @@ static qmc_method auto_choice(const qmc_integrate_spec *spec, const qmc_integran
  * 1.4x worse than plain RQMC's.
  */
 enum { AUTO_PILOT_SHARE = 10, AUTO_MAP_GAIN = 16, AUTO_MAP_AGREE = 3 };
+/* (integrate_memory.h's QMC__AUTO_MAP_MIN_BUDGET must equal it.) */
 #define AUTO_PILOT_MIN_BUDGET 10000u
+_Static_assert(AUTO_PILOT_MIN_BUDGET == QMC__AUTO_MAP_MIN_BUDGET, "the bound's map budget");
 #define AUTO_PILOT_MAX (1u << 17)
 
 /* The pilot's evaluations out of a budget.  RQMC's rounds double n, so
@@ -446,6 +486,22 @@ static int auto_map(const qmc_integrate_spec *spec, const qmc_integrand *f, qmc_
  * replicate; integrands with jumps always (test_coverage). */
 #define AUTO_SPLIT_MIN_N QMC_SAMPLING_BLOCK
 
+enum { AUTO_MIN_FIRST_N = 16 };
+
+uint64_t qmc__auto_first_n(uint64_t budget, int control)
+{
+    const uint64_t per_point = (uint64_t)QMC_SAMPLING_MIN_REPS * (control ? 2 : 1);
+    uint64_t n = QMC_SAMPLING_BLOCK;
+    while (n > AUTO_MIN_FIRST_N && n * per_point * 2 > budget)
+        n /= 2;
+    return n;
+}
+
+uint64_t qmc__auto_min_first_n(void)
+{
+    return AUTO_MIN_FIRST_N;
+}
+
 static qmc_sampling_spec auto_rqmc(const qmc_integrate_spec *spec, const qmc_integrand *f,
                                    const qmc_integrand *g, char *reason, size_t bytes)
 {
@@ -453,12 +509,8 @@ static qmc_sampling_spec auto_rqmc(const qmc_integrate_spec *spec, const qmc_int
     qmc_sampling_spec_init(&r, QMC_SAMPLER_RQMC);
     r.seed = spec->sampling.seed;
     r.confidence = spec->sampling.confidence;
-    r.reps = QMC_SAMPLING_MIN_REPS;
-    const uint64_t per_point = (uint64_t)r.reps * (g ? 2 : 1);
-    uint64_t n = QMC_SAMPLING_BLOCK;
-    while (n > 16 && n * per_point * 2 > spec->max_evals)
-        n /= 2;
-    r.n = spec->n_given ? spec->sampling.n : n;
+    r.reps = QMC_SAMPLING_MIN_REPS; /* qmc__auto_first_n assumes it */
+    r.n = spec->n_given ? spec->sampling.n : qmc__auto_first_n(spec->max_evals, g != NULL);
     const int jumps = f->smoothness >= QMC_SMOOTH_DISCONTINUOUS;
     if (jumps || r.n >= AUTO_SPLIT_MIN_N) {
         r.split_net = 1;

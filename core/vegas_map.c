@@ -167,6 +167,18 @@ const double *qmc__vmap_edges(const qmc__vmap *m, uint32_t axis)
     return m->edges + (size_t)axis * (m->bins + 1);
 }
 
+/* Mirrors vmap_new and qmc__vmap_train's buffer at MAX_BINS (bins only
+ * shrink for thin pilots). */
+void qmc__vmap_bytes(uint32_t dims, uint64_t *map_bytes, uint64_t *train_bytes)
+{
+    *map_bytes = *train_bytes = 0;
+    if (dims == 0 || dims > QMC__VMAP_MAX_DIMS)
+        return;
+    const uint64_t d = dims, bins = MAX_BINS, chunk = 65536 / d;
+    *map_bytes = sizeof(qmc__vmap) + (d * (bins + 1) + 2 * d * bins) * sizeof(double);
+    *train_bytes = (2 * chunk * d + 3 * chunk + d * bins + 2 * (bins + 1)) * sizeof(double);
+}
+
 static qmc__vmap *vmap_new(const qmc_integrand *f, uint32_t bins)
 {
     qmc__vmap *m = calloc(1, sizeof *m);

@@ -53,6 +53,11 @@ typedef struct qmc__vmap_report {
 int qmc__vmap_train(const qmc_integrand *f, uint64_t pilot_evals, uint64_t seed,
                     const qmc_interrupt *hook, qmc__vmap **out, qmc__vmap_report *rep);
 
+/* What a map of f->dims = dims allocates, at most (any pilot): the map
+ * itself, kept while it is used, and training's batch buffers, freed
+ * when qmc__vmap_train returns.  0 and 0 above QMC__VMAP_MAX_DIMS. */
+void qmc__vmap_bytes(uint32_t dims, uint64_t *map_bytes, uint64_t *train_bytes);
+
 /* f(x(u)) J(u) as an integrand on [0,1)^dims, valid while the map lives;
  * it declares the same exact integral and int |f| as f. */
 const qmc_integrand *qmc__vmap_integrand(const qmc__vmap *m);

@@ -123,7 +123,9 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
     qmcd_pool_counts pc; /* the pool's own, kept under its mutex */
     qmcd_pool_counts_get(srv->pool, &pc);
     srv->stats.memory_waits = pc.memory_waits;
+    srv->stats.memory_backfills = pc.memory_backfills;
     srv->stats.memory_reserved = pc.memory_reserved;
+    srv->stats.memory_waiting = (uint64_t)pc.memory_waiting;
     r.u.stats.count = qmcd_stats_entries(&srv->stats, srv->n_conns, srv->n_jobs, entries,
                                          QMC_PROTO_MAX_STATS);
     r.u.stats.count += qmcd_modbus_stats(srv, entries + r.u.stats.count,

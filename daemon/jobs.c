@@ -302,7 +302,8 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         j->spec.max_memory = srv->cfg.max_job_memory;
     /* max-jobs-memory-total: the job reserves its bound before it runs
      * (pool.c); one that could never fit is told so now, not queued. */
-    j->task.mem_bytes = qmc_integrate_memory_bytes(&j->spec, qmc_job_integrand(j->job)->dims);
+    j->task.mem_bytes = qmc_integrate_memory_bytes_for(&j->spec, qmc_job_integrand(j->job),
+                                                       qmc_job_control(j->job));
     if (j->task.mem_bytes > srv->cfg.max_jobs_memory_total) {
         srv->stats.memory_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,

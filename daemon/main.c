@@ -78,6 +78,7 @@ void qmcd_main_reload(qmcd_server *srv)
         qmcd_config_keep_fixed(&srv->cfg, &fresh);
         srv->cfg = fresh;
         qmcd_pool_set_memory_total(srv->pool, fresh.max_jobs_memory_total);
+        qmcd_pool_set_overtakes(srv->pool, (unsigned)fresh.job_memory_overtakes);
         qmcd_log_set_level(fresh.log_level);
         srv->stats.reloads++;
         qmcd_notice("configuration reloaded%s%s", srv->args.config_path ? " from " : "",
@@ -282,8 +283,10 @@ int main(int argc, char **argv)
     unsigned threads = srv.cfg.threads ? (unsigned)srv.cfg.threads
                                        : (unsigned)(cpus > 0 ? cpus : 1);
     int err = qmcd_pool_new(threads, &srv.pool);
-    if (!err)
+    if (!err) {
         qmcd_pool_set_memory_total(srv.pool, srv.cfg.max_jobs_memory_total);
+        qmcd_pool_set_overtakes(srv.pool, (unsigned)srv.cfg.job_memory_overtakes);
+    }
     if (!err)
         err = qmcd_seqcache_new(&srv.seqs);
     if (!err)

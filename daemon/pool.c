@@ -27,13 +27,22 @@
  * every other peer.
  *
  * Job memory: each task states what it may allocate (mem_bytes, from
- * qmc_integrate_memory_bytes) and reserves it when it takes a runner; the
+ * qmc_integrate_memory_bytes_for) and reserves it when it takes a runner; the
  * reservations of the tasks on runners stay within mem_total
- * (max-jobs-memory-total).  A task that does not fit keeps its tenant's
- * turn: no runner is handed out until the reservations of the running
- * ones shrink enough for it, so a big job is not passed over forever by a
- * stream of small ones (first in turn, first served).  Cancelled tasks
- * start past this too: they allocate nothing.
+ * (max-jobs-memory-total).  The first task whose turn comes while its
+ * memory does not fit becomes the waiter; it starts as soon as its memory
+ * fits, before anyone else.  Meanwhile the tenants go on in turn with
+ * their first queued task that does fit (backfill: a small job need not
+ * wait behind a big one), but only max_overtakes of them
+ * (job-memory-overtakes): then admission drains, nothing that reserves
+ * memory starts until the waiter has, and the waiter starts once enough
+ * running jobs have ended (each within the job time limit).  So a stream
+ * of small jobs cannot starve a big one, and a big one delays the small
+ * ones no more than it must.  The default of 8 overtakes is below the
+ * smallest number of runners (workers + RUNNERS_SPARE >= 9), so the jobs
+ * that overtake a waiter can all run at once: they delay its start by at
+ * most the longest of them, not by a chain of them one after another.
+ * Cancelled tasks start past all this: they allocate nothing.
  *
  * Determinism: a block's sums depend only on (job, block index) and are
  * written to out[i]; qmc_sampling_finish combines them in block order.  So
@@ -114,7 +123,11 @@ struct qmcd_pool {
     uint64_t mem_total;          /* max-jobs-memory-total */
     uint64_t mem_used;           /* reserved by the tasks on runners */
     uint64_t mem_waits;          /* tasks whose start memory held back */
-    uint64_t mem_stalls;         /* times admission stopped for memory */
+    uint64_t mem_backfills;      /* tasks that started ahead of a waiter */
+    qmcd_pool_task *waiter;      /* queued: its turn came, its memory did not fit */
+    unsigned overtakes;          /* tasks started ahead of the waiter */
+    unsigned max_overtakes;      /* job-memory-overtakes: then admission drains */
+    uint64_t admissions;         /* tasks put on runners */
     peer_group *groups;
     qmcd_pool_tenant *rr_compute; /* ring cursor: who gets the next slot */
     qmcd_pool_tenant *rr_admit;   /* ring cursor: who gets the next runner */
@@ -258,56 +271,121 @@ static int work_waiting(qmcd_pool *pool)
     return 0;
 }
 
-/* The next task to put on a runner, tenants in turn. */
+/* Whether the task's reservation fits now.  With nothing reserved it runs
+ * whatever it needs: jobs over the total are refused at submission, so
+ * that is one queued before SIGHUP lowered the total, and it must not wait
+ * for ever. */
+static int fits(const qmcd_pool *pool, const qmcd_pool_task *task)
+{
+    uint64_t room = pool->mem_used < pool->mem_total ? pool->mem_total - pool->mem_used : 0;
+    return task->mem_bytes <= room || pool->mem_used == 0;
+}
+
+/* Whether the tenant may put another task on a runner. */
+static int may_run(const qmcd_pool *pool, const qmcd_pool_tenant *t)
+{
+    return t->running < pool->tenant_running_max && t->group->running < pool->peer_running_max;
+}
+
+/* Moves *link (prev before it in t's queue, or NULL) onto a runner. */
+static qmcd_pool_task *admit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task **link,
+                             qmcd_pool_task *prev)
+{
+    qmcd_pool_task *task = *link;
+    if (task == pool->waiter) {
+        pool->waiter = NULL;
+        pool->overtakes = 0;
+    } else if (pool->waiter && task->mem_bytes > 0) {
+        pool->overtakes++; /* backfill: it takes memory while the waiter waits */
+        pool->mem_backfills++;
+    }
+    if (task->mem_held)
+        pool->mem_waits++;
+    pool->mem_used += task->mem_bytes;
+    task->admitted = ++pool->admissions;
+    *link = task->next;
+    if (t->queue_tail == task)
+        t->queue_tail = prev;
+    task->next = NULL;
+    t->running++;
+    t->group->running++;
+    return task;
+}
+
+/*
+ * The next task to put on a runner.  In this order:
+ *  1. a cancelled task, anywhere: past every limit and every wait, with
+ *     nothing reserved (it only has to notice, and its answer should not
+ *     wait for the tenant's running jobs to end);
+ *  2. the waiter (the task whose turn came while its memory did not fit),
+ *     as soon as its memory fits;
+ *  3. the tenants in turn (rr_admit), each offering its first queued task
+ *     that fits: backfill, so that a small job runs while a big one waits
+ *     for memory.  The first task met that does not fit becomes the
+ *     waiter.  Once max_overtakes tasks have started ahead of the waiter,
+ *     admission drains for it: no task that reserves memory starts until
+ *     the waiter has (running jobs give back memory and never take more,
+ *     so it starts once enough of them end - each within the job time
+ *     limit), and a stream of small jobs cannot starve a big one.
+ */
 static qmcd_pool_task *pick_task(qmcd_pool *pool)
 {
     qmcd_pool_tenant *first = pool->rr_admit;
     if (!first)
         return NULL;
     qmcd_pool_tenant *t = first;
-    int stalled = 0; /* a task at its turn waits for memory */
     do {
-        /* A cancelled task goes past the tenant's limit (and past a
-         * memory stall): it only has to notice, and its answer should not
-         * wait for the tenant's running jobs to end. */
         qmcd_pool_task **link = &t->queue_head, *prev = NULL;
-        while (*link && !(*link)->must_stop((*link)))
+        while (*link && !(*link)->must_stop(*link))
             prev = *link, link = &(*link)->next;
-        int cancelled = *link != NULL;
-        if (!*link && !stalled && t->running < pool->tenant_running_max &&
-            t->group->running < pool->peer_running_max)
-            link = &t->queue_head, prev = NULL;
-        qmcd_pool_task *task = *link;
-        uint64_t room = pool->mem_used < pool->mem_total ? pool->mem_total - pool->mem_used : 0;
-        if (task && !cancelled && task->mem_bytes > room && pool->mem_used > 0) {
-            /* Its turn, but not its memory yet: it waits, and so does
-             * everyone behind it in turn (but cancelled tasks), until
-             * running jobs give back enough (runner() wakes the runners
-             * when one ends).  With nothing reserved it runs whatever it
-             * needs: jobs over the total are refused at submission, so
-             * that is one queued before SIGHUP lowered the total, and it
-             * must not wait for ever. */
-            pool->mem_stalls++;
-            stalled = 1;
-            task = NULL;
+        if (*link) {
+            (*link)->mem_bytes = 0; /* it only has to notice */
+            (*link)->mem_held = 0;
+            return admit(pool, t, link, prev);
         }
-        if (task) {
-            if (cancelled)
-                task->mem_bytes = 0; /* it only has to notice */
-            /* Admission stopped for memory since it was queued: it was
-             * held back, at its turn or behind the one whose turn it was. */
-            else if (task->mem_epoch != pool->mem_stalls)
-                pool->mem_waits++;
-            pool->mem_used += task->mem_bytes;
-            *link = task->next;
-            if (t->queue_tail == task)
-                t->queue_tail = prev;
-            task->next = NULL;
-            t->running++;
-            t->group->running++;
-            if (!stalled) /* the stalled tenant keeps its turn */
+        t = t->next;
+    } while (t != first);
+
+    qmcd_pool_task *w = pool->waiter;
+    if (w && fits(pool, w)) {
+        qmcd_pool_tenant *wt = w->tenant;
+        if (may_run(pool, wt)) {
+            qmcd_pool_task **link = &wt->queue_head, *prev = NULL;
+            while (*link != w)
+                prev = *link, link = &(*link)->next;
+            return admit(pool, wt, link, prev);
+        }
+        /* Held by its own tenant's (or peer's) limit, not by memory: an
+         * ordinary queued task again, which waits for its tenant's jobs
+         * like any other. */
+        pool->waiter = NULL;
+        pool->overtakes = 0;
+    }
+
+    t = first;
+    do {
+        if (may_run(pool, t)) {
+            qmcd_pool_task **link = &t->queue_head, *prev = NULL;
+            for (; *link; prev = *link, link = &(*link)->next) {
+                qmcd_pool_task *task = *link;
+                if (task == pool->waiter)
+                    continue;
+                int drained = pool->waiter && pool->overtakes >= pool->max_overtakes;
+                if (drained || !fits(pool, task)) {
+                    /* Held back for memory: STATS job_memory_waits counts
+                     * it when it starts. */
+                    task->mem_held = 1;
+                    if (!pool->waiter) {
+                        pool->waiter = task;
+                        pool->overtakes = 0;
+                    }
+                    if (drained)
+                        break; /* the tenant's later tasks are held too */
+                    continue;
+                }
                 pool->rr_admit = t->next;
-            return task;
+                return admit(pool, t, link, prev);
+            }
         }
         t = t->next;
     } while (t != first);
@@ -543,7 +621,7 @@ void qmcd_pool_submit(qmcd_pool *pool, qmcd_pool_tenant *t, qmcd_pool_task *task
     task->granted = 0;
     task->next = NULL;
     pthread_mutex_lock(&pool->mu);
-    task->mem_epoch = pool->mem_stalls;
+    task->mem_held = 0;
     t->refs++;
     if (t->queue_tail)
         t->queue_tail->next = task;
@@ -564,11 +642,22 @@ void qmcd_pool_set_memory_total(qmcd_pool *pool, uint64_t bytes)
     pthread_mutex_unlock(&pool->mu);
 }
 
+void qmcd_pool_set_overtakes(qmcd_pool *pool, unsigned overtakes)
+{
+    pthread_mutex_lock(&pool->mu);
+    pool->max_overtakes = overtakes;
+    /* A raised count may let a drained admission backfill again. */
+    pthread_cond_broadcast(&pool->runner_cv);
+    pthread_mutex_unlock(&pool->mu);
+}
+
 void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out)
 {
     pthread_mutex_lock(&pool->mu);
     out->memory_waits = pool->mem_waits;
+    out->memory_backfills = pool->mem_backfills;
     out->memory_reserved = pool->mem_used;
+    out->memory_waiting = pool->waiter != NULL;
     pthread_mutex_unlock(&pool->mu);
 }
 
@@ -600,6 +689,7 @@ int qmcd_pool_new(unsigned workers, qmcd_pool **out)
     pool->n_runners = workers + (workers > RUNNERS_SPARE ? workers : RUNNERS_SPARE);
     pool->slots_free = workers;
     pool->mem_total = UINT64_MAX; /* until qmcd_pool_set_memory_total */
+    pool->max_overtakes = 8;      /* until qmcd_pool_set_overtakes */
     pool->tenant_running_max = workers;
     /* One peer may hold every runner but `workers` of them: another peer's
      * job always finds one, however many connections the first opens. */

@@ -25,7 +25,8 @@ struct qmcd_pool_task {
     qmcd_pool_tenant *tenant;
     qmcd_pool *pool;
     uint64_t mem_bytes;                     /* caller: what the job may allocate */
-    uint64_t mem_epoch;                     /* pool mutex: mem_stalls when submitted */
+    int mem_held;                           /* pool mutex: memory held it back */
+    uint64_t admitted;                      /* pool mutex: 1, 2, ... in order of start */
     int granted;                            /* pool mutex: a slot was handed over */
     int64_t slot_ms;                        /* runner: when it took its slot */
 };
@@ -56,11 +57,20 @@ void qmcd_pool_cancelled(qmcd_pool *pool);
  * before it is submitted).  Loop thread, at start and on SIGHUP. */
 void qmcd_pool_set_memory_total(qmcd_pool *pool, uint64_t bytes);
 
-/* Isolation counters, for STATS: tasks that waited for job memory, and the
- * bytes reserved now by the tasks on runners. */
+/* job-memory-overtakes: how many tasks may start ahead of one that waits
+ * for its memory (backfill) before admission drains for it; 0 keeps strict
+ * turns (nothing passes a waiting task).  Loop thread, at start and on
+ * SIGHUP. */
+void qmcd_pool_set_overtakes(qmcd_pool *pool, unsigned overtakes);
+
+/* Isolation counters, for STATS: tasks that waited for job memory, tasks
+ * that started ahead of one waiting for memory (backfill), the bytes
+ * reserved now by the tasks on runners, and whether a task waits now. */
 typedef struct qmcd_pool_counts {
     uint64_t memory_waits;
+    uint64_t memory_backfills;
     uint64_t memory_reserved;
+    int memory_waiting;          /* a queued task waits for its memory now */
 } qmcd_pool_counts;
 void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out);
 

@@ -38,7 +38,8 @@
     X(jobs_refusals, "refused_jobs")                        \
     X(cancel_refusals, "refused_cancels_per_conn")          \
     X(memory_refusals, "refused_job_memory")                \
-    X(memory_waits, "job_memory_waits")
+    X(memory_waits, "job_memory_waits")                     \
+    X(memory_backfills, "job_memory_backfills")
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
@@ -55,6 +56,7 @@ typedef struct qmcd_stats {
     /* Gauge: bytes max-jobs-memory-total has reserved for running jobs
      * (the pool's; copied in, like memory_waits, when STATS is asked). */
     uint64_t memory_reserved;
+    uint64_t memory_waiting;   /* gauge: 1 while a job waits for its memory */
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;

@@ -77,10 +77,12 @@ static const known_stat known[] = {
     {"refused_cancels_per_conn", 0, "JOB_CANCELs refused for max-cancels-per-conn."},
     {"refused_job_memory", 0, "INTEGRATEs refused: alone over max-jobs-memory-total."},
     {"job_memory_waits", 0, "Jobs that waited for max-jobs-memory-total before they ran."},
+    {"job_memory_backfills", 0, "Jobs that started ahead of a job waiting for its memory."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
     {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
                                      "jobs now."},
+    {"job_memory_waiting", 1, "1 while a job waits for its memory (others may backfill)."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };

@@ -109,6 +109,17 @@ QMC_MUST_CHECK int qmc_integrate(const qmc_integrate_spec *spec,
  */
 uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dims);
 
+/*
+ * The same bound for this integrand f and control variate g (NULL: none):
+ * for method auto it counts only the rule auto picks for f (from its
+ * dims, its declared smoothness and g) and the RQMC that may follow or
+ * replace it, so it is never larger than qmc_integrate_memory_bytes(spec,
+ * f->dims) and often far smaller (an integrand with jumps gets no
+ * cubature regions).  Other methods: qmc_integrate_memory_bytes.
+ */
+uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                                        const qmc_integrand *g);
+
 /* "sobol owen, 16 x 4096 points" for a sampling spec, into buf. */
 void qmc_sampling_describe(const qmc_sampling_spec *s, char *buf, size_t bytes);
 

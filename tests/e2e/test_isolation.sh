@@ -11,6 +11,7 @@
 set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
 GREEDY="$(cd "$(dirname "$0")" && pwd)/greedypeer.py"
+BACKFILL="$(cd "$(dirname "$0")" && pwd)/backfillpeer.py"
 . "$(dirname "$0")/lib.sh"
 
 # greedy SCENARIO ARGS...: runs a greedypeer scenario, counts its lines.
@@ -94,6 +95,16 @@ ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=8"
 export ASAN_OPTIONS
 serve jobmem --threads 2 --max-jobs-memory-total 56M || exit 1
 greedy jobmem "$T" "$U" "$pid" 56 24 24
+stop "$pid"
+
+# 7. Backfill: a 40 MiB job runs under max-jobs-memory-total 64M, a second
+# one waits, 3 small jobs of another peer finish meanwhile
+# (job-memory-overtakes 3), the 4th waits until the big one has started;
+# STATS counts the backfills and waits exactly and accepted = done +
+# failed + cancelled + dropped + open (tests/e2e/backfillpeer.py).
+serve backfill --threads 2 --max-jobs-memory-total 64M --max-job-evals 2199023255552 \
+    --job-memory-overtakes 3 || exit 1
+run_peer "$BACKFILL" backfill "$T" "$U" 3
 stop "$pid"
 
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/*.log; then
