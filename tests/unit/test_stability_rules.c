@@ -169,6 +169,32 @@ static void test_cubature_formerly_silent_scan_cases(void **state)
     }
 }
 
+static void gl_97(qmc_integrate_spec *s) { s->n_axis = 97; }
+static void gl_2048(qmc_integrate_spec *s) { s->n_axis = 2048; }
+
+/* Gauss-Legendre in the full stability run (peak-gauss-3d, 97 and 48
+ * nodes an axis under 2^20 evaluations): 9.97e-7 +- 3.9e-8 against
+ * 1.65e-6, unflagged.  The marginals' Legendre coefficients had not begun
+ * to decay at l = 72..96 (quad_tensor.c, gl_marginal_unresolved), so the
+ * bar is flagged unresolved now.  The control: a 1D peak of width 1/300
+ * that 2048 nodes resolve (0.0059081795 to 16 digits) stays unflagged. */
+static void test_gauss_legendre_unresolved_marginal(void **state)
+{
+    (void)state;
+    const double a3[] = {150, 150, 150}, u3[] = {0.21, 0.68, 0.43};
+    run_out o = run_au("genz-gaussian", 3, a3, u3, QMC_METHOD_GAUSS_LEGENDRE, gl_97);
+    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
+    double truth = gaussian_truth(3, a3, u3);
+    ASSERT_COVERS_OR_FLAGGED(o, truth);
+    assert_true(fabs(o.rep.res.estimate - truth) > 3 * o.rep.res.error); /* the flag saves it */
+    const double a1[] = {300}, u1[] = {0.37};
+    o = run_au("genz-gaussian", 1, a1, u1, QMC_METHOD_GAUSS_LEGENDRE, gl_2048);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.res.flags, 0);
+    truth = gaussian_truth(1, a1, u1);
+    assert_true(fabs(o.rep.res.estimate - truth) <= 3 * o.rep.res.error + 1e-15);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -177,6 +203,7 @@ int main(void)
         cmocka_unit_test(test_resolved_peak_not_flagged),
         cmocka_unit_test(test_cubature_partial_peak),
         cmocka_unit_test(test_cubature_formerly_silent_scan_cases),
+        cmocka_unit_test(test_gauss_legendre_unresolved_marginal),
     };
     return cmocka_run_group_tests_name("stability-rules", tests, NULL, NULL);
 }
