@@ -163,7 +163,11 @@ int qmcd_conn_send(qmcd_conn *c, const qmc_msg *m)
 {
     if (c->dead)
         return -1;
-    size_t size = qmc_proto_encoded_size(m);
+    /* Frames go out as the negotiated version defines them (a result's
+     * flags, PROTOCOL.md section 5).  Before HELLO_OK only the handshake
+     * and ERROR are sent, which every version encodes alike. */
+    const unsigned version = c->version ? c->version : QMC_PROTO_VERSION_MAX;
+    size_t size = qmc_proto_encoded_size_version(m, version);
     if (size == 0) {
         qmcd_err("conn %llu: cannot encode a %s frame", (unsigned long long)c->id,
                  qmc_msg_type_name(m->type));
@@ -176,7 +180,7 @@ int qmcd_conn_send(qmcd_conn *c, const qmc_msg *m)
         qmcd_conn_close(c, "output buffer full");
         return -1;
     }
-    int n = qmc_proto_encode(m, p, size);
+    int n = qmc_proto_encode_version(m, version, p, size);
     if (n < 0) {
         qmcd_err("conn %llu: encoding %s: %s", (unsigned long long)c->id,
                  qmc_msg_type_name(m->type), qmc_strerror(n));

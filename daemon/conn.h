@@ -46,6 +46,8 @@ struct qmcd_conn {
     int refused;                 /* over a connection limit: ERROR, linger, close */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;
+    uint16_t version;            /* the protocol version HELLO_OK chose, or 0
+                                    before it: what our frames are encoded for */
     int peer_eof;                /* the peer half-closed: answer, then close */
     int closing;                 /* ERROR sent: flush, shut down, close */
     int wr_shut;                 /* shutdown(SHUT_WR) done: only draining */

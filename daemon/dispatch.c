@@ -88,6 +88,7 @@ void qmcd_dispatch_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
                             uint32_t client_max_frame, int64_t t0)
 {
     c->hello_done = 1;
+    c->version = version;
     c->client_max_frame = client_max_frame;
     const qmcd_config *cfg = &c->srv->cfg;
     static const char server[] = "qmcd", engine[] = "libqmc 0.1.0";

@@ -91,11 +91,24 @@ out:
     return ret;
 }
 
+static int version_ok(unsigned version)
+{
+    return version >= 1 && version <= QMC_PROTO_VERSION_MAX;
+}
+
 int qmc_proto_decode(const uint8_t *buf, size_t len, uint32_t max_payload, qmc_msg *out)
+{
+    return qmc_proto_decode_version(buf, len, max_payload, QMC_PROTO_VERSION_MAX, out);
+}
+
+int qmc_proto_decode_version(const uint8_t *buf, size_t len, uint32_t max_payload,
+                             unsigned version, qmc_msg *out)
 {
     if (out == NULL)
         return QMC_EINVAL;
     memset(out, 0, sizeof *out);
+    if (!version_ok(version))
+        return QMC_EINVAL;
     qmc_msg_type type;
     uint64_t id;
     uint32_t plen;
@@ -105,7 +118,8 @@ int qmc_proto_decode(const uint8_t *buf, size_t len, uint32_t max_payload, qmc_m
     if (len - QMC_PROTO_HEADER_BYTES < plen)
         return QMC_EAGAIN;
     qmc__io io = {.decode = 1,
-                  .rd = qmc__rd_make(buf + QMC_PROTO_HEADER_BYTES, plen)};
+                  .rd = qmc__rd_make(buf + QMC_PROTO_HEADER_BYTES, plen),
+                  .version = version};
     out->type = type;
     out->request_id = id;
     qmc__proto_layout(type)->io(&io, out);
@@ -134,16 +148,17 @@ static void put_header(uint8_t *p, uint32_t type, uint64_t request_id, uint32_t 
 /* Runs the layout over a copy of msg (the layouts take a mutable message,
  * as decoding needs; encoding only normalises the copy).  buf NULL:
  * validate and measure only.  Returns the payload length or an error. */
-static int encode_payload(const qmc_msg *msg, uint8_t *buf, size_t cap, size_t *payload_len)
+static int encode_payload(const qmc_msg *msg, unsigned version, uint8_t *buf, size_t cap,
+                          size_t *payload_len)
 {
     *payload_len = 0;
-    if (msg == NULL)
+    if (msg == NULL || !version_ok(version))
         return QMC_EINVAL;
     const qmc__layout *lay = qmc__proto_layout((uint32_t)msg->type);
     if (lay == NULL)
         return QMC_EINVAL;
     qmc_msg tmp = *msg;
-    qmc__io io = {.decode = 0, .wr = qmc__wr_make(buf, cap)};
+    qmc__io io = {.decode = 0, .wr = qmc__wr_make(buf, cap), .version = version};
     lay->io(&io, &tmp);
     if (io.err)
         return io.err;
@@ -158,25 +173,35 @@ static int encode_payload(const qmc_msg *msg, uint8_t *buf, size_t cap, size_t *
 
 size_t qmc_proto_encoded_size(const qmc_msg *msg)
 {
+    return qmc_proto_encoded_size_version(msg, QMC_PROTO_VERSION_MAX);
+}
+
+size_t qmc_proto_encoded_size_version(const qmc_msg *msg, unsigned version)
+{
     size_t plen;
-    if (encode_payload(msg, NULL, 0, &plen) != 0)
+    if (encode_payload(msg, version, NULL, 0, &plen) != 0)
         return 0;
     return QMC_PROTO_HEADER_BYTES + plen;
 }
 
 int qmc_proto_encode(const qmc_msg *msg, uint8_t *buf, size_t cap)
 {
+    return qmc_proto_encode_version(msg, QMC_PROTO_VERSION_MAX, buf, cap);
+}
+
+int qmc_proto_encode_version(const qmc_msg *msg, unsigned version, uint8_t *buf, size_t cap)
+{
     size_t plen;
     if (buf == NULL || cap < QMC_PROTO_HEADER_BYTES) {
         /* Report a bad message as such before a small buffer. */
-        int err = encode_payload(msg, NULL, 0, &plen);
+        int err = encode_payload(msg, version, NULL, 0, &plen);
         return err ? err : QMC_ETOOBIG;
     }
     /* One pass: the write cursor is sticky and bounded by cap, and field
      * errors are reported before "did not fit" - so there is no need to
      * measure first (the daemon encodes a frame per small answer). */
-    int err = encode_payload(msg, buf + QMC_PROTO_HEADER_BYTES, cap - QMC_PROTO_HEADER_BYTES,
-                             &plen);
+    int err = encode_payload(msg, version, buf + QMC_PROTO_HEADER_BYTES,
+                             cap - QMC_PROTO_HEADER_BYTES, &plen);
     if (err)
         return err;
     put_header(buf, (uint32_t)msg->type, msg->request_id, (uint32_t)plen);
@@ -197,7 +222,7 @@ int qmc_proto_encode_chunk_prefix(uint64_t request_id, uint64_t first, uint32_t 
     static const uint8_t no_data[1];
     m.u.chunk.data = no_data; /* only measured: the caller writes the data */
     size_t plen;
-    int err = encode_payload(&m, NULL, 0, &plen);
+    int err = encode_payload(&m, QMC_PROTO_VERSION_MAX, NULL, 0, &plen);
     if (err)
         return err;
     size_t prefix = QMC_PROTO_HEADER_BYTES + plen - data_len;

@@ -26,6 +26,8 @@ typedef struct qmc__io {
     qmc__rd rd;
     qmc__wr wr;
     int err;            /* 0 or the first field error (EPROTO / EINVAL) */
+    unsigned version;   /* the negotiated protocol version: which result
+                           flag bits are defined (result_flags.c) */
 } qmc__io;
 
 /*

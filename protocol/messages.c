@@ -21,7 +21,6 @@
 
 #define CASE_CODE(name, code, ...) case code:
 #define COUNT_ONE(...) +1
-#define FLAG_BIT(name, bit, ...) | (1u << (bit))
 
 static int seq_kind_ok(uint32_t v)
 {
@@ -116,15 +115,25 @@ static int difficulty_ok(uint32_t v)
 }
 
 /* Defined flag bits; the others are reserved and must be zero.  A new
- * bit is a protocol change. */
+ * bit is a protocol change: result flags by version are in
+ * result_flags.c. */
 #define SEQ_FLAGS_KNOWN ((uint32_t)QMC_SEQ_SHUFFLE)
-#define RESULT_FLAGS_KNOWN (0u QMC_FLAG_MAP(FLAG_BIT))
 
 static void io_flags(qmc__io *io, uint32_t *v, uint32_t known)
 {
     qmc__io_u32(io, v);
     if (*v & ~known)
         qmc__io_invalid(io);
+}
+
+/* Result flags as the connection's version defines them: encoding tells
+ * an older peer the newer bits through error_unreliable; decoding refuses
+ * a bit the version does not define. */
+static void io_result_flags(qmc__io *io, uint32_t *v)
+{
+    if (!io->decode)
+        *v = qmc_proto_result_flags_for(io->version, *v);
+    io_flags(io, v, qmc_proto_result_flags_defined(io->version));
 }
 
 /* An enumeration stored in a C enum (or int) field, as one byte. */
@@ -332,7 +341,7 @@ static void io_result(qmc__io *io, qmc_msg *m)
     IO_ENUM(io, r->reference_kind, kind3_ok);
     qmc__io_bool(io, &r->cv.used);
     qmc__io_u32(io, &res->dims);
-    io_flags(io, &res->flags, RESULT_FLAGS_KNOWN);
+    io_result_flags(io, &res->flags);
     qmc__io_zero(io, 4);
     qmc__io_u64(io, &res->n);
     qmc__io_u64(io, &res->evals);

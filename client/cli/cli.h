@@ -59,6 +59,18 @@ int cli_next_option(const char *cmd, int argc, char **argv,
 
 /* Writes all of buf to f; prints an error and returns -1 on failure. */
 int cli_write_all(FILE *f, const void *buf, size_t bytes, const char *what);
+/* Comma-separated list options ("mc,rqmc", "0.3,0.6").  cli_list_next
+ * returns 0 at the end of the list at *p; else it points *item at the
+ * next item, *len bytes long (0 for the empty item of ",,"), and moves *p
+ * past it and its comma.  A trailing comma ends the list after the item
+ * before it; a caller that refuses one checks (*item)[*len] == ',' with
+ * **p == '\0'.  cli_list_copy copies an item into buf as a string: -1 if
+ * it is empty or does not fit in bytes. */
+int cli_list_next(const char **p, const char **item, size_t *len);
+int cli_list_copy(const char *item, size_t len, char *buf, size_t bytes);
+/* Seconds on the monotonic clock: what every run's wall time is measured
+ * by (differences only). */
+double cli_now_seconds(void);
 
 /* Subcommands: each takes argv with argv[0] the subcommand name. */
 int cli_cmd_points(int argc, char **argv);
@@ -83,6 +95,10 @@ int cli_remote_take(int *argc, char **argv, const char **endpoint);
 int cli_remote_connect(const char *endpoint, qmc_client **out);
 /* Prints "qmc: <prefix><the client's message>" and returns CLI_EXIT_FAIL. */
 int cli_remote_fail(const qmc_client *c, int err, const char *prefix);
+/* Refuses an in-process option given with --connect: prints "OPTION is
+ * an in-process option: the daemon runs WHAT on its own pool (drop it, or
+ * --connect '' to run here)" and returns CLI_EXIT_FAIL. */
+int cli_remote_in_process_only(const char *option, const char *what);
 /* Help text for --connect. */
 extern const char cli_remote_help[];
 

@@ -1,6 +1,7 @@
 /*
  * cli_common.c - what every qmc subcommand shares: error lines, number
- * parsing, the sequence options, and checked writes.
+ * parsing, the sequence options, checked writes, and the clock runs are
+ * timed by.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -8,6 +9,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "cli.h"
 
@@ -196,4 +198,31 @@ int cli_next_option(const char *cmd, int argc, char **argv,
     *name = longopts[idx].name;
     *arg = optarg;
     return 1;
+}
+
+double cli_now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int cli_list_next(const char **p, const char **item, size_t *len)
+{
+    if (**p == '\0')
+        return 0;
+    const char *comma = strchr(*p, ',');
+    *item = *p;
+    *len = comma ? (size_t)(comma - *p) : strlen(*p);
+    *p += *len + (comma ? 1 : 0);
+    return 1;
+}
+
+int cli_list_copy(const char *item, size_t len, char *buf, size_t bytes)
+{
+    if (len == 0 || len >= bytes)
+        return -1;
+    memcpy(buf, item, len);
+    buf[len] = '\0';
+    return 0;
 }

@@ -13,7 +13,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli.h"
 #include "compare.h"
@@ -77,24 +76,6 @@ typedef struct cmp_opts {
     uint64_t seed;
 } cmp_opts;
 
-static int parse_list(const char *opt, const char *text, double *out, size_t *n)
-{
-    *n = 0;
-    for (const char *p = text; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
-        char item[64];
-        if (len == 0 || len >= sizeof item || *n == CLI_MAX_LIST)
-            return cli_error("%s: bad list '%s'", opt, text), -1;
-        memcpy(item, p, len);
-        item[len] = '\0';
-        if (cli_parse_double(opt, item, &out[(*n)++]))
-            return -1;
-        p += len + (comma ? 1 : 0);
-    }
-    return *n ? 0 : (cli_error("%s: empty list", opt), -1);
-}
-
 static int parse(int argc, char **argv, cmp_opts *o)
 {
     static const struct option longopts[] = {
@@ -108,13 +89,7 @@ static int parse(int argc, char **argv, cmp_opts *o)
         {"help", no_argument, 0, 0},            {0, 0, 0, 0},
     };
     memset(o, 0, sizeof *o);
-    qmc_sampling_spec_init(&o->job.spec, QMC_SAMPLER_MC);
-    o->job.method = "auto";
-    o->job.beta = 2.0;
-    o->job.samples_brdf = o->job.samples_light = 1;
-    o->job.max_evals = 100000000;
-    o->job.max_memory = 64u << 20;
-    o->job.threads = 1;
+    cli_job_options_init(&o->job);
     o->reps = 5;
     o->threads = 1;
     o->seed = 1;
@@ -124,31 +99,15 @@ static int parse(int argc, char **argv, cmp_opts *o)
     const char *name, *arg;
     uint64_t v;
     while ((more = cli_next_option("compare", argc, argv, longopts, &first, &name, &arg)) > 0) {
+        int job = cli_job_option(&o->job, name, arg);
+        if (job < 0)
+            return -1;
+        if (job > 0)
+            continue;
         if (strcmp(name, "help") == 0) {
             fputs(compare_help, stdout);
             fputs(cli_remote_help, stdout);
             return 1;
-        } else if (strcmp(name, "integrand") == 0) {
-            o->job.integrand = arg;
-        } else if (strcmp(name, "scene") == 0) {
-            o->job.scene = arg;
-        } else if (strcmp(name, "dims") == 0) {
-            if (cli_parse_u64("--dims", arg, 1, QMC_TESTFN_MAX_DIMS, &v))
-                return -1;
-            o->job.dims = (uint32_t)v, o->job.have_dims = 1;
-        } else if (strcmp(name, "a") == 0) {
-            if (parse_list("--a", arg, o->job.a, &o->job.n_a))
-                return -1;
-            o->job.have_a = 1;
-        } else if (strcmp(name, "u") == 0) {
-            if (parse_list("--u", arg, o->job.u, &o->job.n_u))
-                return -1;
-            o->job.have_u = 1;
-        } else if (strcmp(name, "strategy") == 0) {
-            o->job.strategy = arg;
-        } else if (strcmp(name, "beta") == 0) {
-            if (cli_parse_double("--beta", arg, &o->job.beta))
-                return -1;
         } else if (strcmp(name, "methods") == 0) {
             o->methods = arg;
         } else if (strcmp(name, "budgets") == 0) {
@@ -226,23 +185,20 @@ static int parse_budgets(const char *text, cli_cmp *c)
 static int parse_methods(const char *list, cli_cmp *c)
 {
     c->n_methods = 0;
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
+    const char *p = list, *it;
+    size_t len;
+    while (cli_list_next(&p, &it, &len)) {
         char item[64], why[256];
-        if (len == 0 || len >= sizeof item)
+        if (cli_list_copy(it, len, item, sizeof item))
             return cli_error("--methods: bad list '%s'", list), -1;
         if (c->n_methods == CLI_CMP_MAX_METHODS)
             return cli_error("--methods: more than %d methods", CLI_CMP_MAX_METHODS), -1;
-        memcpy(item, p, len);
-        item[len] = '\0';
         if (cli_method_parse(item, &c->methods[c->n_methods], why, sizeof why) != 0)
             return cli_error("--methods: %s", why), -1;
         for (uint32_t i = 0; i < c->n_methods; i++)
             if (strcmp(c->methods[i].name, c->methods[c->n_methods].name) == 0)
                 return cli_error("--methods: %s is listed twice", c->methods[i].name), -1;
         c->n_methods++;
-        p += len + (comma ? 1 : 0);
     }
     return c->n_methods ? 0 : (cli_error("--methods: empty list"), -1);
 }
@@ -256,13 +212,6 @@ static const char *default_methods(const cli_problem *p)
     if (p->f->dims <= 3)
         return "mc,rqmc/sobol/owen,gauss-legendre,cubature,auto";
     return "mc,rqmc/sobol/owen,cubature,auto";
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* The reference: exact, auto or a value (before anything is written). */
@@ -341,9 +290,9 @@ static int run_one(const cmp_opts *o, const cli_problem *p, qmc_job_spec *remote
         /* The wall time the user waits for, transport and queueing
          * included: the daemon's own compute time rounds tiny jobs to 0. */
         qmc_client_result *r = malloc(sizeof *r);
-        double t0 = now_seconds();
+        double t0 = cli_now_seconds();
         err = r ? qmc_client_integrate(client, remote_spec, r) : QMC_ENOMEM;
-        run->seconds = now_seconds() - t0;
+        run->seconds = cli_now_seconds() - t0;
         if (r && err == 0) {
             run->res = r->res;
         } else {
@@ -353,9 +302,9 @@ static int run_one(const cmp_opts *o, const cli_problem *p, qmc_job_spec *remote
     } else {
         qmc_integrate_report rep;
         cli_threads th = {o->threads};
-        double t0 = now_seconds();
+        double t0 = cli_now_seconds();
         err = qmc_job_run(p->job, &s, cli_run_blocks_threaded, &th, &rep, why, sizeof why);
-        run->seconds = now_seconds() - t0;
+        run->seconds = cli_now_seconds() - t0;
         run->res = rep.res;
     }
     run->refused = err != 0;
@@ -406,8 +355,7 @@ int cli_cmd_compare(int argc, char **argv)
     if (r != 0)
         return r > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     if (endpoint && o.have_threads)
-        return cli_error("--threads is an in-process option: the daemon runs each job on its "
-                         "own pool (drop it, or --connect '' to run here)");
+        return cli_remote_in_process_only("--threads", "each job");
     cli_cmp *c = calloc(1, sizeof *c);
     if (!c)
         return cli_error("out of memory");

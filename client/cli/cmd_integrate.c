@@ -9,7 +9,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli.h"
 #include "integrate.h"
@@ -75,31 +74,6 @@ static const char integrate_help[] =
     "  --threads and --part are in-process options: with --connect the daemon's\n"
     "  worker pool runs the whole job, and giving either is an error.\n";
 
-static int parse_list(const char *opt, const char *text, double *out, size_t *n)
-{
-    *n = 0;
-    const char *p = text;
-    while (*p) {
-        if (*n == CLI_MAX_LIST)
-            return cli_error("%s: more than %d values", opt, CLI_MAX_LIST), -1;
-        const char *comma = strchr(p, ',');
-        size_t len = comma ? (size_t)(comma - p) : strlen(p);
-        char item[64];
-        if (len == 0 || len >= sizeof item)
-            return cli_error("%s: bad list '%s'", opt, text), -1;
-        memcpy(item, p, len);
-        item[len] = '\0';
-        if (cli_parse_double(opt, item, &out[(*n)++]))
-            return -1;
-        p += len + (comma ? 1 : 0);
-        if (comma && *p == '\0')
-            return cli_error("%s: bad list '%s'", opt, text), -1;
-    }
-    if (*n == 0)
-        return cli_error("%s: empty list", opt), -1;
-    return 0;
-}
-
 static int is_sampler(const char *m)
 {
     qmc_sampler s;
@@ -125,14 +99,7 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
         {"json", no_argument, 0, 0},            {"help", no_argument, 0, 0},
         {0, 0, 0, 0},
     };
-    memset(o, 0, sizeof *o);
-    qmc_sampling_spec_init(&o->spec, QMC_SAMPLER_MC);
-    o->method = "auto";
-    o->beta = 2.0;
-    o->samples_brdf = o->samples_light = 1;
-    o->max_evals = 100000000;
-    o->max_memory = 64u << 20;
-    o->threads = 1;
+    cli_job_options_init(o);
     int first = 1, more;
     const char *name, *arg;
     uint64_t v;
@@ -150,26 +117,15 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
                 o->job_args[o->n_job_args++] = (char *)arg;
             }
         }
+        int job = cli_job_option(o, name, arg);
+        if (job < 0)
+            return -1;
+        if (job > 0)
+            continue;
         if (strcmp(name, "help") == 0) {
             fputs(integrate_help, stdout);
             fputs(cli_remote_help, stdout);
             return 1;
-        } else if (strcmp(name, "integrand") == 0) {
-            o->integrand = arg;
-        } else if (strcmp(name, "scene") == 0) {
-            o->scene = arg;
-        } else if (strcmp(name, "dims") == 0) {
-            if (cli_parse_u64("--dims", arg, 1, QMC_TESTFN_MAX_DIMS, &v))
-                return -1;
-            o->dims = (uint32_t)v, o->have_dims = 1;
-        } else if (strcmp(name, "a") == 0) {
-            if (parse_list("--a", arg, o->a, &o->n_a))
-                return -1;
-            o->have_a = 1;
-        } else if (strcmp(name, "u") == 0) {
-            if (parse_list("--u", arg, o->u, &o->n_u))
-                return -1;
-            o->have_u = 1;
         } else if (strcmp(name, "difficulty") == 0) {
             o->difficulty = arg;
         } else if (strcmp(name, "method") == 0) {
@@ -196,11 +152,6 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
             o->spec.reps = (uint32_t)v, o->have_reps = 1;
         } else if (strcmp(name, "seed") == 0) {
             if (cli_parse_u64("--seed", arg, 0, UINT64_MAX, &o->spec.seed))
-                return -1;
-        } else if (strcmp(name, "strategy") == 0) {
-            o->strategy = arg;
-        } else if (strcmp(name, "beta") == 0) {
-            if (cli_parse_double("--beta", arg, &o->beta))
                 return -1;
         } else if (strcmp(name, "samples") == 0) {
             unsigned b, l;
@@ -283,13 +234,6 @@ int cli_integrate_defaults(cli_integrate *o, const cli_problem *p)
     return 0;
 }
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static int run_part(const cli_integrate *o, const cli_problem *p)
 {
     if (!is_sampler(o->method))
@@ -305,13 +249,13 @@ static int run_part(const cli_integrate *o, const cli_problem *p)
     uint64_t first = nb * (o->part_k - 1) / o->part_p, end = nb * o->part_k / o->part_p;
     qmc_sampling_sums *sums = calloc(end - first + 1, sizeof *sums);
     int rc = 0;
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     cli_threads t = {o->threads};
     if (!sums)
         rc = cli_error("out of memory for %llu block sums", (unsigned long long)(end - first));
     else if (cli_run_blocks_threaded(&t, job, first, end - first, sums) != 0)
         rc = cli_error("integrate: computing blocks failed");
-    if (rc == 0 && cli_partial_write(stdout, o, job, sums, first, end - first, now_seconds() - t0))
+    if (rc == 0 && cli_partial_write(stdout, o, job, sums, first, end - first, cli_now_seconds() - t0))
         rc = CLI_EXIT_FAIL;
     free(sums);
     qmc_sampling_job_free(job);
@@ -328,9 +272,7 @@ int cli_cmd_integrate(int argc, char **argv)
     if (r != 0)
         return r > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     if (endpoint && (o.part_p || o.threads > 1))
-        return cli_error("--%s is an in-process option: the daemon runs the whole job on "
-                         "its own pool (drop it, or --connect '' to run here)",
-                         o.part_p ? "part" : "threads");
+        return cli_remote_in_process_only(o.part_p ? "--part" : "--threads", "the whole job");
     /* The problem is built here in remote mode too: the same checks and
      * messages before anything is sent, and the integrand's known
      * integral of |f| and reference for the report. */

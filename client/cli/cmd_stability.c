@@ -14,7 +14,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli.h"
 #include "outdir.h"
@@ -75,28 +74,24 @@ typedef struct stab_opts {
 /* Is name in the comma-separated list? */
 static int in_list(const char *list, const char *name)
 {
-    size_t len = strlen(name);
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t n = comma ? (size_t)(comma - p) : strlen(p);
-        if (n == len && strncmp(p, name, n) == 0)
+    const size_t len = strlen(name);
+    const char *p = list, *it;
+    size_t n;
+    while (cli_list_next(&p, &it, &n))
+        if (n == len && strncmp(it, name, n) == 0)
             return 1;
-        p += n + (comma ? 1 : 0);
-    }
     return 0;
 }
 
 /* Every item of list must name one of names[] (via canon for methods). */
 static int check_list(const char *opt, const char *list, int is_method)
 {
-    for (const char *p = list; *p;) {
-        const char *comma = strchr(p, ',');
-        size_t n = comma ? (size_t)(comma - p) : strlen(p);
+    const char *p = list, *it;
+    size_t n;
+    while (cli_list_next(&p, &it, &n)) {
         char item[64];
-        if (n == 0 || n >= sizeof item)
+        if (cli_list_copy(it, n, item, sizeof item))
             return cli_error("%s: bad list '%s'", opt, list), -1;
-        memcpy(item, p, n);
-        item[n] = '\0';
         int found = 0;
         if (is_method) {
             cli_method m;
@@ -118,7 +113,6 @@ static int check_list(const char *opt, const char *list, int is_method)
             if (!found)
                 return cli_error("%s: no case named '%s'", opt, item), -1;
         }
-        p += n + (comma ? 1 : 0);
     }
     return 0;
 }
@@ -253,13 +247,6 @@ typedef struct stab_ctx {
     atomic_size_t next;
 } stab_ctx;
 
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static void copy_text(char *dst, size_t bytes, const char *src)
 {
     snprintf(dst, bytes, "%s", src);
@@ -281,7 +268,7 @@ static void run_cell(stab_ctx *x, size_t index)
     qmc_integrate_report *reps = calloc(seeds, sizeof *reps);
     char (*whys)[160] = calloc(seeds, sizeof *whys);
     int *refused = calloc(seeds, sizeof *refused);
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     if (!verdicts || !reps || !whys || !refused) {
         cell->cls = QMC_STAB_REFUSED;
         copy_text(cell->reason, sizeof cell->reason, "out of memory");
@@ -321,7 +308,7 @@ static void run_cell(stab_ctx *x, size_t index)
               refused[shown] ? "" : qmc_method_name(reps[shown].method_used));
     copy_text(cell->reason, sizeof cell->reason, refused[shown] ? whys[shown] : "");
 done:
-    cell->seconds = now_seconds() - t0;
+    cell->seconds = cli_now_seconds() - t0;
     free(verdicts), free(reps), free(whys), free(refused);
 }
 
@@ -364,17 +351,15 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
             goto fail;
         }
         int want = !o->methods;
-        if (o->methods)
-            for (const char *p = o->methods; *p && !want;) {
-                const char *comma = strchr(p, ',');
-                size_t n = comma ? (size_t)(comma - p) : strlen(p);
-                char item[64];
-                cli_method other;
-                snprintf(item, sizeof item, "%.*s", (int)n, p);
-                want = cli_method_parse(item, &other, why, sizeof why) == 0 &&
-                       strcmp(other.name, m.name) == 0;
-                p += n + (comma ? 1 : 0);
-            }
+        const char *p = o->methods ? o->methods : "", *it;
+        size_t n;
+        while (!want && cli_list_next(&p, &it, &n)) {
+            char item[64];
+            cli_method other;
+            snprintf(item, sizeof item, "%.*s", (int)n, it);
+            want = cli_method_parse(item, &other, why, sizeof why) == 0 &&
+                   strcmp(other.name, m.name) == 0;
+        }
         if (want)
             mx->methods[mx->n_methods++] = m;
     }
@@ -390,7 +375,7 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
     }
     stab_ctx x = {.mx = mx, .o = o, .rows = rows};
     atomic_init(&x.next, 0);
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     unsigned n = o->threads;
     pthread_t *ids = calloc(n, sizeof *ids);
     unsigned started = 0;
@@ -402,7 +387,7 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
     for (unsigned i = 0; i < started; i++)
         pthread_join(ids[i], NULL);
     free(ids);
-    mx->seconds = now_seconds() - t0;
+    mx->seconds = cli_now_seconds() - t0;
     for (size_t i = 0; i < total; i++) {
         mx->count[mx->cells[i].cls]++;
         mx->ok_flagged_runs += mx->cells[i].tally.ok_flagged;

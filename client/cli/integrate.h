@@ -75,6 +75,13 @@ typedef struct cli_report {
 
 /* Parses `qmc integrate` options (argv[0] is the subcommand name). */
 int cli_integrate_parse(int argc, char **argv, cli_integrate *opt);
+/* job_options.c, for every command that fills a cli_integrate: the
+ * defaults (auto, 1e8 evaluations, 64 MiB, one thread, ...), and the
+ * options naming what to integrate (--integrand, --scene, --dims, --a,
+ * --u, --strategy, --beta).  cli_job_option returns 1 when `name` is one
+ * of them and arg went into opt, 0 when it is not, -1 after an error. */
+void cli_job_options_init(cli_integrate *opt);
+int cli_job_option(cli_integrate *opt, const char *name, const char *arg);
 /* The qmc_job_spec for opt; *scene_text (free it) holds a --scene file's
  * text.  Prints an error and returns -1 on failure. */
 int cli_job_spec(const cli_integrate *opt, qmc_job_spec *spec, char **scene_text);

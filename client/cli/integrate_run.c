@@ -5,18 +5,10 @@
  */
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli.h"
 #include "integrate.h"
 #include "runner_threads.h"
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 int cli_integrate_spec(const cli_integrate *o, qmc_integrate_spec *s)
 {
@@ -66,9 +58,9 @@ int cli_integrate_run(const cli_integrate *o, const cli_problem *p, cli_report *
     cli_threads t = {o->threads};
     qmc_integrate_report r;
     char why[256] = "";
-    double t0 = now_seconds();
+    double t0 = cli_now_seconds();
     int err = qmc_integrate(&s, p->f, p->g, cli_run_blocks_threaded, &t, &r, why, sizeof why);
-    rep->seconds = now_seconds() - t0;
+    rep->seconds = cli_now_seconds() - t0;
     if (err)
         return cli_error("%s", why[0] ? why : qmc_strerror(err));
     rep->res = r.res;

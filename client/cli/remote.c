@@ -60,6 +60,12 @@ int cli_remote_take(int *argc, char **argv, const char **endpoint)
     return 0;
 }
 
+int cli_remote_in_process_only(const char *option, const char *what)
+{
+    return cli_error("%s is an in-process option: the daemon runs %s on its own pool (drop "
+                     "it, or --connect '' to run here)", option, what);
+}
+
 int cli_remote_connect(const char *endpoint, qmc_client **out)
 {
     int err = qmc_client_connect_auth(endpoint, CLI_REMOTE_TIMEOUT_MS, auth_key_file, out);

@@ -225,8 +225,11 @@ int qmc__client_read(qmc_client *c, int64_t deadline_ms, int keep_on_timeout,
     if (c->fd < 0)
         return qmc__client_fail(c, -ENOTCONN, "not connected to a server");
     for (;;) {
-        int n = qmc_proto_decode(c->rbuf + c->rpos, c->rlen - c->rpos,
-                                 QMC_CLIENT_MAX_FRAME, msg);
+        /* As the version HELLO_OK chose defines the frames (a result flag
+         * bit past it is malformed); before HELLO_OK, the newest. */
+        int n = qmc_proto_decode_version(c->rbuf + c->rpos, c->rlen - c->rpos,
+                                         QMC_CLIENT_MAX_FRAME,
+                                         c->version ? c->version : QMC_PROTO_VERSION_MAX, msg);
         if (n > 0) {
             c->rpos += (size_t)n;
             return 0;

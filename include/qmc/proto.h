@@ -56,6 +56,13 @@ extern "C" {
 /* Version 3 adds the key-based authentication of the handshake
  * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
 #define QMC_PROTO_VERSION_AUTH 3u
+/* Version 3 also adds result flag bits 12-16 (few_nonzero .. mis_undersampled,
+ * qmc/result.h); versions 1 and 2 define bits 0-11.  A peer of an older
+ * version rejects a bit it does not define, so a result is encoded for the
+ * version the connection negotiated (qmc_proto_result_flags_for). */
+#define QMC_PROTO_VERSION_FLAGS3 3u
+#define QMC_PROTO_RESULT_FLAGS_V1 0x00000fffu   /* versions 1 and 2 */
+#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu
 /* Bytes of each side's nonce and of an HMAC-SHA256 tag in the handshake. */
 #define QMC_PROTO_AUTH_NONCE_BYTES 32u
 #define QMC_PROTO_AUTH_MAC_BYTES 32u
@@ -308,9 +315,20 @@ typedef struct qmc_msg {
     } u;
 } qmc_msg;
 
-/* Decodes one frame (see the file comment). */
+/* Decodes one frame (see the file comment) as protocol version
+ * QMC_PROTO_VERSION_MAX defines it. */
 QMC_MUST_CHECK int qmc_proto_decode(const uint8_t *buf, size_t len,
                                     uint32_t max_payload, qmc_msg *out);
+
+/*
+ * The same for a connection that negotiated `version` (1 ..
+ * QMC_PROTO_VERSION_MAX; anything else is QMC_EINVAL): a JOB_RESULT whose
+ * flags carry a bit that version does not define is malformed.  A peer
+ * decodes with the version HELLO_OK chose.
+ */
+QMC_MUST_CHECK int qmc_proto_decode_version(const uint8_t *buf, size_t len,
+                                            uint32_t max_payload, unsigned version,
+                                            qmc_msg *out);
 
 /* Only the header: returns QMC_PROTO_HEADER_BYTES, QMC_EAGAIN, or an
  * error; sets *type, *request_id and *payload_len. */
@@ -325,6 +343,30 @@ QMC_MUST_CHECK int qmc_proto_encode(const qmc_msg *msg, uint8_t *buf,
 
 /* The frame length qmc_proto_encode would produce, or 0 if invalid. */
 size_t qmc_proto_encoded_size(const qmc_msg *msg);
+
+/*
+ * Encoding for a connection that negotiated `version` (1 ..
+ * QMC_PROTO_VERSION_MAX; else QMC_EINVAL): a JOB_RESULT's flags go out as
+ * qmc_proto_result_flags_for(version, flags).  qmc_proto_encode is this
+ * at QMC_PROTO_VERSION_MAX.
+ */
+QMC_MUST_CHECK int qmc_proto_encode_version(const qmc_msg *msg, unsigned version,
+                                            uint8_t *buf, size_t cap);
+size_t qmc_proto_encoded_size_version(const qmc_msg *msg, unsigned version);
+
+/* The result flag bits protocol `version` defines (PROTOCOL.md section 5),
+ * or 0 for a version this codec does not speak. */
+uint32_t qmc_proto_result_flags_defined(unsigned version);
+
+/*
+ * Result flags as a peer of `version` is told them: the defined bits as
+ * they are; the bits added after that version dropped, and
+ * QMC_FLAG_ERROR_UNRELIABLE raised when any was, since each of them says
+ * that the bar rests on evidence it cannot vouch for and error_unreliable
+ * is how an older peer hears that.  Bits no version defines are left for
+ * the encoder to refuse.  For an unknown version, flags unchanged.
+ */
+uint32_t qmc_proto_result_flags_for(unsigned version, uint32_t flags);
 
 /*
  * Zero-copy POINTS_CHUNK: writes the frame header and the chunk prefix for

@@ -16,7 +16,9 @@
 #             empty variable is skipped): for a test that checks its
 #             daemon's exit status and clears the variable once it has.
 #   cleanup   the EXIT trap calls it by name: a test that must clean up
-#             still otherwise redefines cleanup() after sourcing.
+#             still otherwise redefines cleanup() after sourcing.  SIGINT
+#             and SIGTERM exit the test, so cleanup runs then too.
+#   QMC_ENDPOINT and QMC_AUTH_KEY_FILE are unset (a test sets its own).
 #   pass, fail  the counters; `ok` counts a pass, `bad MSG` a failure and
 #             prints "FAIL: MSG".
 #
@@ -29,6 +31,10 @@
 #                           "FAIL ..." lines to fail, and prints the latter;
 #                           1 if it has neither (a peer that printed no
 #                           check at all: the caller says which).
+#   run_peer SCRIPT SCENARIO ARGS...  runs the Python peer SCRIPT (with
+#                           /usr/bin/python3) on SCENARIO ARGS, its output in
+#                           $tmp/peer.out, and tallies it; a peer that printed
+#                           no check at all is a failure naming the scenario.
 #   wait_file FILE [STEPS]  polls in 50 ms steps, at most STEPS (default
 #                           200, 10 s), until FILE exists; 0 if it does.
 #   wait_gone PID [STEPS]   polls in 50 ms steps, at most STEPS (default
@@ -60,6 +66,11 @@ cleanup() {
     if [ -n "${KEEP_TMP:-}" ]; then echo "kept $tmp"; else rm -rf "$tmp"; fi
 }
 trap cleanup EXIT
+# An interrupted test exits, so that the EXIT trap still stops its daemons.
+trap 'exit 1' INT TERM
+# The caller's own daemon and key are not the test's: with these set every
+# qmc command would go to it.  A test that wants them sets them itself.
+unset QMC_ENDPOINT QMC_AUTH_KEY_FILE
 pass=0
 fail=0
 ok() { pass=$((pass + 1)); }
@@ -84,6 +95,14 @@ tally() {
     fail=$((fail + e2e_bad))
     grep '^FAIL ' "$1"
     [ "$e2e_ok" -gt 0 ] || [ "$e2e_bad" -gt 0 ]
+}
+
+run_peer() {
+    e2e_script=$1
+    shift
+    /usr/bin/python3 "$e2e_script" "$@" > "$tmp/peer.out" 2>&1
+    tally "$tmp/peer.out" ||
+        bad "$(basename "$e2e_script" .py) $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
 }
 
 wait_file() {

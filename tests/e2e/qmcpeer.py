@@ -44,6 +44,25 @@ SAMPLERS = ["mc", "stratified", "lhs", "qmc", "rqmc"]
 JOB_STATES = {1: "queued", 2: "running", 3: "done", 4: "cancelled", 5: "failed",
               6: "unknown"}
 MIS_POWER = 5
+# Result flag bits each protocol version defines (PROTOCOL.md section 5);
+# a peer refuses a JOB_RESULT with any other bit set, as one built for that
+# version must.
+RESULT_FLAGS_V1 = ["nonfinite", "heavy_tail", "not_pow2", "dims_past_good", "not_converged",
+                   "budget", "roundoff", "max_subdiv", "memory_bound", "few_reps",
+                   "error_unreliable", "zero_pdf"]
+RESULT_FLAGS_V3 = RESULT_FLAGS_V1 + ["few_nonzero", "zero_spread", "tail_untested",
+                                     "unresolved", "mis_undersampled"]
+RESULT_FLAGS = {1: RESULT_FLAGS_V1, 2: RESULT_FLAGS_V1, 3: RESULT_FLAGS_V3}
+NEWEST_VERSION = 3
+
+
+def flag_bit(name):
+    return 1 << RESULT_FLAGS_V3.index(name)
+
+
+def flag_names(flags):
+    return [n for i, n in enumerate(RESULT_FLAGS_V3) if flags >> i & 1] + \
+        ["bit%d" % i for i in range(len(RESULT_FLAGS_V3), 32) if flags >> i & 1]
 QMC_ETOOBIG = -1011
 QMC_EPROTO = -1010
 QMC_EINVAL = -1001
@@ -102,8 +121,9 @@ def read_sampling(r):
                 n=n, confidence=conf, reps=reps, split_net=split_net)
 
 
-def decode(mtype, p):
-    """Payload bytes -> dict, checking every length as the spec says."""
+def decode(mtype, p, version=NEWEST_VERSION):
+    """Payload bytes -> dict, checking every length as the spec says, and
+    the result flags as the negotiated `version` defines them."""
     r = Reader(p)
     d = {"type": NAME.get(mtype, mtype)}
     if mtype == MSG["HELLO_OK"]:
@@ -133,6 +153,10 @@ def decode(mtype, p):
         d["method_used"] = METHODS[r.u("B")]
         d["error_kind"], d["reference_kind"], d["cv_used"] = r.u("B"), r.u("B"), r.u("B")
         d["dims"], d["flags"] = r.u("I"), r.u("I")
+        defined = sum(1 << i for i in range(len(RESULT_FLAGS[version])))
+        if d["flags"] & ~defined:
+            raise ValueError("JOB_RESULT flags %#x: bits %#x are undefined in version %d"
+                             % (d["flags"], d["flags"] & ~defined, version))
         r.take(4)
         for k in ("n", "evals", "nonfinite"):
             d[k] = r.u("Q")
@@ -170,6 +194,8 @@ def decode(mtype, p):
 
 
 class Peer:
+    version = NEWEST_VERSION  # the protocol version, once HELLO_OK chose it
+
     def __init__(self, addr, timeout=15.0, hello=True, max_frame=16 << 20, version=1):
         if addr.startswith("unix:"):
             self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -209,7 +235,7 @@ class Peer:
                 if len(self.buf) >= HEADER.size + plen:
                     p = bytes(self.buf[HEADER.size:HEADER.size + plen])
                     del self.buf[:HEADER.size + plen]
-                    d = decode(mtype, p)
+                    d = decode(mtype, p, self.version)
                     return d["type"], rid, d
             chunk = self.s.recv(1 << 20)
             if not chunk:
@@ -233,6 +259,10 @@ class Peer:
                                     + str16(name)))
         if t != "HELLO_OK":
             raise ValueError("HELLO answered with %s: %r" % (t, d))
+        if d["version"] not in RESULT_FLAGS or d["version"] > version:
+            raise ValueError("HELLO_OK chose version %d; we offered 1..%d" % (d["version"],
+                                                                              version))
+        self.version = d["version"]
         return d
 
     def ping_frame(self, rid, data=b"hello"):
@@ -495,6 +525,53 @@ def sc_integrate(addr, cli_json, integrand, dims, method, n, reps, seed):
           want["method_used"] == d["method_used"] and want["detail"] == d["detail"],
           "%r vs %r" % (want, d))
     p.close()
+
+
+def sc_flags_compat(addr):
+    """Result flags 12-16 came with version 3: a peer that negotiated 1 or 2
+    gets a result with none of them (recv() refuses undefined bits) and
+    error_unreliable in their place; a version-3 peer gets them as they
+    are.  Everything else in the result is the same at every version."""
+    peak = dict(a=(400.0, 400.0), u=(0.123, 0.777))
+    cases = [
+        # Clenshaw-Curtis nodes miss a narrow peak: unresolved (the engine
+        # also raises error_unreliable).
+        ("clenshaw-curtis on a missed peak", "unresolved",
+         dict(cli_like_spec("genz-gaussian", 2, "clenshaw-curtis"), **peak)),
+        # 64 MC points cannot test the tail (k = n / 20 < 8): tail_untested,
+        # which alone does not raise error_unreliable in the engine.
+        ("mc at n = 64", "tail_untested", cli_like_spec("genz-oscillatory", 2, "mc", 64)),
+        # One QMC point set that saw the peak a few times, no bar at all.
+        ("qmc on a missed peak", "few_nonzero",
+         dict(cli_like_spec("genz-gaussian", 2, "qmc", 256), **peak)),
+    ]
+    old = sum(1 << i for i in range(len(RESULT_FLAGS_V1)))
+    unreliable = flag_bit("error_unreliable")
+    for name, want, spec in cases:
+        got = {}
+        for version in (1, 2, 3):
+            p = Peer(addr, version=version)
+            check("%s: version %d negotiated" % (name, version), p.version == version,
+                  repr(p.info))
+            got[version] = run_job(p, spec)
+            p.close()
+        new = got[3]
+        check("%s: version 3 sees %s %s" % (name, want, flag_names(new["flags"])),
+              new["flags"] & flag_bit(want), "%#x" % new["flags"])
+        for version in (1, 2):
+            d = got[version]
+            check("%s: version %d sees %s, no bit past 11, error_unreliable"
+                  % (name, version, flag_names(d["flags"])),
+                  d["flags"] == (new["flags"] & old) | unreliable,
+                  "%#x vs %#x" % (d["flags"], new["flags"]))
+            same_rest = all(same(new[k], d[k]) for k in
+                            ("estimate", "error", "ci_low", "ci_high", "abs_integral",
+                             "reference")) and \
+                all(new[k] == d[k] for k in ("n", "evals", "nonfinite", "dims",
+                                             "method_used", "error_kind", "detail",
+                                             "auto_reason", "sampling"))
+            check("%s: version %d result otherwise identical" % (name, version), same_rest,
+                  "%r vs %r" % (d, new))
 
 
 def sc_pipeline(addr, max_inflight):
@@ -1153,7 +1230,8 @@ SCENARIOS = dict(hello=sc_hello, points=sc_points, points_error=sc_points_error,
                  disconnect=sc_disconnect, noread=sc_noread, stall=sc_stall, cancel=sc_cancel,
                  timeout=sc_timeout, sigterm_jobs=sc_jobs_for_sigterm, reload=sc_reload,
                  malformed=sc_malformed, partial=sc_partial, maxconn=sc_maxconn,
-                 stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits)
+                 stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits,
+                 flags_compat=sc_flags_compat)
 
 
 def main(argv, scenarios=None, prog="qmcpeer.py"):

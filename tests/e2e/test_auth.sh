@@ -26,8 +26,6 @@ set -u
 # stopped it itself and checked the exit status.
 pid=
 term_vars=pid
-trap 'exit 1' INT TERM
-unset QMC_ENDPOINT QMC_AUTH_KEY_FILE
 PEER="$(cd "$(dirname "$0")" && pwd)/authpeer.py"
 
 # peer SCENARIO ARGS...: runs an authpeer scenario and counts its lines.

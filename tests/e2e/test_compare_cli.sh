@@ -18,8 +18,6 @@ set -u
 # The daemon in $pid gets SIGTERM at exit unless the test has stopped it.
 pid=
 term_vars=pid
-trap 'exit 1' INT TERM
-unset QMC_ENDPOINT
 PY=/usr/bin/python3
 
 JOB="--integrand genz-gaussian --dims 2 --a 3,4 --u 0.3,0.6"
@@ -146,6 +144,12 @@ expect_error "no closed form" --scene "$SCENES/phong_sphere.scene" --reference e
 expect_error "line 1, column 1" --scene /dev/null --out "$tmp/bad"
 expect_error "either --integrand or --scene" $JOB --scene x --out "$tmp/bad"
 expect_error "--reps" $JOB --reps 0 --out "$tmp/bad"
+# the job's lists are read as qmc integrate reads them: a trailing comma
+# is an empty item, not the end of the list
+expect_error "--a: bad list '3,4,'" --integrand genz-gaussian --dims 2 --a 3,4, --out "$tmp/bad"
+expect_error "^qmc: --threads is an in-process option: the daemon runs each job on its own pool (drop it, or --connect '' to run here)$" \
+    $JOB --threads 2 --connect "unix:$tmp/none.sock" --out "$tmp/bad"
+expect_error "--u: empty list" --integrand genz-gaussian --dims 2 --u "" --out "$tmp/bad"
 # an existing DIR is left exactly as it was
 "$QMC" compare $JOB --methods bogus --out "$tmp/keep" > /dev/null 2>&1
 [ "$(ls -A "$tmp/keep")" = "old.txt" ] && [ "$(cat "$tmp/keep/old.txt")" = precious ] && ok ||

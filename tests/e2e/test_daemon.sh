@@ -22,10 +22,7 @@ PEER="$(cd "$(dirname "$0")" && pwd)/qmcpeer.py"
 . "$(dirname "$0")/lib.sh"
 
 # peer SCENARIO ARGS...: runs a qmcpeer scenario and counts its ok/FAIL lines.
-peer() {
-    "$PY" "$PEER" "$@" > "$tmp/peer.out" 2>&1
-    tally "$tmp/peer.out" || bad "peer $1 printed nothing: $(head -c 300 "$tmp/peer.out")"
-}
+peer() { run_peer "$PEER" "$@"; }
 
 FP=$("$QMC" --version | sed -n 's/.*fingerprint: *//p')
 

@@ -148,6 +148,11 @@ err_case "reps" integrate --integrand genz-gaussian --dims 2 --method rqmc --rep
 err_case "--split-net is for rqmc" integrate --integrand genz-gaussian --dims 2 --method mc --split-net
 err_case "k^2" integrate --integrand genz-gaussian --dims 2 --method stratified --n 10
 err_case "--part" integrate --integrand exp --dims 1 --method rqmc --part 4/3
+# in-process options with --connect are refused before any connection
+err_case "^qmc: --threads is an in-process option: the daemon runs the whole job on its own pool (drop it, or --connect '' to run here)$" \
+    integrate --connect "unix:$tmp/none.sock" --integrand exp --dims 1 --threads 2
+err_case "^qmc: --part is an in-process option: the daemon runs the whole job" \
+    integrate --connect "unix:$tmp/none.sock" --integrand exp --dims 1 --method rqmc --part 1/2
 err_case "fixed --n" integrate --integrand exp --dims 1 --method rqmc --tol-rel 1e-3 --part 1/2
 err_case "budget" integrate --integrand genz-gaussian --dims 2 --method mc --n 1000000 --max-evals 1000
 err_case "--difficulty" integrate --integrand genz-gaussian --dims 2 --difficulty hard --method mc

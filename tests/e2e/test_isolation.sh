@@ -10,54 +10,19 @@
 # Env: QMC, QMCD (binaries), BUILD.  Prints "N passed, M failed".
 set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
-PY=/usr/bin/python3
 GREEDY="$(cd "$(dirname "$0")" && pwd)/greedypeer.py"
-tmp=$(mktemp -d)
-pids=""
-cleanup() {
-    for p in $pids; do kill -9 "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+. "$(dirname "$0")/lib.sh"
 
 # greedy SCENARIO ARGS...: runs a greedypeer scenario, counts its lines.
-greedy() {
-    "$PY" "$GREEDY" "$@" > "$tmp/greedy.out" 2>&1
-    n_ok=$(grep -c '^ok ' "$tmp/greedy.out")
-    n_bad=$(grep -c '^FAIL ' "$tmp/greedy.out")
-    pass=$((pass + n_ok))
-    fail=$((fail + n_bad))
-    grep '^FAIL ' "$tmp/greedy.out"
-    if [ "$n_ok" -eq 0 ] && [ "$n_bad" -eq 0 ]; then
-        bad "greedy $1 printed nothing: $(head -c 300 "$tmp/greedy.out")"
-    fi
-}
+greedy() { run_peer "$GREEDY" "$@"; }
 
-# wait_file FILE: polls (50 ms steps, at most 10 s) until FILE exists.
-wait_file() {
-    i=0
-    while [ ! -e "$1" ] && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
-    [ -e "$1" ]
-}
-
-# start NAME ARGS...: qmcd --foreground in the background; sets $pid, $U
-# (its Unix socket) and $T (its TCP address) once its ready file is there.
-start() {
+# serve NAME ARGS...: lib.sh's start, on its own Unix socket and a loopback
+# port; sets $pid, $U (the socket) and $T (the TCP address).
+serve() {
     name=$1
     shift
-    rm -f "$tmp/$name.ready"
-    "$QMCD" --foreground --ready-file "$tmp/$name.ready" --listen "unix:$tmp/$name.sock" \
-        --listen tcp:127.0.0.1:0 --log-level notice "$@" 2> "$tmp/$name.log" &
-    pid=$!
-    pids="$pids $pid"
-    if ! wait_file "$tmp/$name.ready"; then
-        bad "$name: not ready within 10 s: $(head -c 500 "$tmp/$name.log")"
-        return 1
-    fi
+    start "$name" --listen "unix:$tmp/$name.sock" --listen tcp:127.0.0.1:0 \
+        --log-level notice "$@" || return 1
     U="unix:$tmp/$name.sock"
     T=$(grep '^tcp:' "$tmp/$name.ready")
 }
@@ -66,12 +31,13 @@ start() {
 stop() {
     kill -TERM "$1"
     if wait "$1"; then ok; else bad "daemon $1 did not exit cleanly"; fi
+    forget "$1"
 }
 
 # 1. Connection slots: one peer cannot take them all.  Another uid on the
 # same Unix socket is another peer, so the socket (and the directory) must
 # let uid 65534 in for the test.
-start peers --max-connections 1024 --max-connections-per-peer 64 || exit 1
+serve peers --max-connections 1024 --max-connections-per-peer 64 || exit 1
 chmod 755 "$tmp"
 chmod 666 "$tmp/peers.sock"
 greedy peers "$T" "$U" "$pid" 64
@@ -82,7 +48,7 @@ stop "$pid"
 # filled its 4 MiB out-buffer-bytes (RSS 5 MB -> 789 MB); with
 # out-buffer-total-bytes 32M the bound is 32 MiB plus a 128 KiB floor per
 # connection (25 MiB), so +80 MiB.
-start noread --max-connections-per-peer 256 --out-buffer-total-bytes 32M || exit 1
+serve noread --max-connections-per-peer 256 --out-buffer-total-bytes 32M || exit 1
 greedy noread "$U" "$pid" 200 80
 stop "$pid"
 
@@ -93,7 +59,7 @@ stop "$pid"
 # socket timeout.)  max-job-evals is raised so the 8 never end by budget;
 # at 2^40 evaluations an adaptive job may hold 94 GB of block sums, so
 # max-jobs-memory-total is raised with it (test 6 tries that limit).
-start starve --threads 2 --max-job-evals 1099511627776 --max-jobs-memory-total 4096G || exit 1
+serve starve --threads 2 --max-job-evals 1099511627776 --max-jobs-memory-total 4096G || exit 1
 greedy starve "$U"
 # One peer with 6 connections x 2 such jobs would take all 10 runners; it
 # gets all but 2 (threads), and 127.0.0.1's job still runs and finishes.
@@ -101,7 +67,7 @@ greedy starve_peers "$T" 6
 stop "$pid"
 
 # 4. Quotas: jobs in flight and cancels, per connection.
-start quota --threads 1 --max-jobs-per-conn 3 --max-cancels-per-conn 4 \
+serve quota --threads 1 --max-jobs-per-conn 3 --max-cancels-per-conn 4 \
     --max-job-evals 1099511627776 --max-jobs-memory-total 4096G || exit 1
 greedy quota "$U" 3 4
 stop "$pid"
@@ -111,7 +77,7 @@ stop "$pid"
 # again, charged to the daemon.  Before the seal: a 64 MiB ring went
 # RssShmem 64 MiB -> 0 -> 64 MiB (allocated anew by the daemon).  Now both
 # fail with EPERM and the memfd's blocks never change.
-start punch || exit 1
+serve punch || exit 1
 greedy punch "$U" "$pid" 16
 stop "$pid"
 
@@ -126,7 +92,7 @@ stop "$pid"
 # than one job's workspace lets them go back as glibc's would.
 ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}quarantine_size_mb=8"
 export ASAN_OPTIONS
-start jobmem --threads 2 --max-jobs-memory-total 56M || exit 1
+serve jobmem --threads 2 --max-jobs-memory-total 56M || exit 1
 greedy jobmem "$T" "$U" "$pid" 56 24 24
 stop "$pid"
 
@@ -136,5 +102,4 @@ else ok; fi
 if [ $fail -ne 0 ]; then
     for f in "$tmp"/*.log; do echo "--- $f (tail)"; tail -n 20 "$f"; done
 fi
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -19,20 +19,10 @@ set -u
 : "${QMC:?set QMC to the qmc binary}"
 : "${QMCD:?set QMCD to the qmcd binary}"
 PY=/usr/bin/python3
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/qmc-json.XXXXXX") || exit 1
+. "$(dirname "$0")/lib.sh"
+# The daemon in $pid gets SIGTERM at exit unless the test has stopped it.
 pid=
-cleanup() {
-    if [ -n "$pid" ]; then kill "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; fi
-    rm -rf "$TMP"
-}
-trap cleanup EXIT
-trap 'exit 1' INT TERM
-unset QMC_ENDPOINT
-
-passed=0
-failed=0
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
+term_vars=pid
 
 # check NAME FILE PYTHON-CODE [ARGS...]: runs the code with `j` the JSON
 # object parsed from FILE (which must hold exactly one line) and sys.argv[1:]
@@ -40,7 +30,7 @@ bad() { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
 check() {
     name=$1 file=$2 code=$3
     shift 3
-    if "$PY" - "$file" "$@" >"$TMP/check.err" 2>&1 <<PYEOF
+    if "$PY" - "$file" "$@" >"$tmp/check.err" 2>&1 <<PYEOF
 import json, math, sys
 text = open(sys.argv[1]).read()
 assert text.endswith("\n") and text.count("\n") == 1, "not one line: %r" % text[:200]
@@ -49,11 +39,11 @@ assert isinstance(j, dict), "not an object"
 sys.argv = sys.argv[1:]
 $code
 PYEOF
-    then ok; else bad "$name: $(tail -n 3 "$TMP/check.err")"; fi
+    then ok; else bad "$name: $(tail -n 3 "$tmp/check.err")"; fi
 }
 
 # ---- discrepancy -------------------------------------------------------------
-"$PY" - "$TMP/pts.csv" "$TMP/scipy.txt" <<'PYEOF'
+"$PY" - "$tmp/pts.csv" "$tmp/scipy.txt" <<'PYEOF'
 import sys
 import numpy as np
 from scipy.stats import qmc
@@ -68,11 +58,11 @@ PYEOF
 while read -r method want; do
     squared=True
     [ "$method" = l2-star ] && squared=False
-    if "$QMC" discrepancy --method "$method" --in "$TMP/pts.csv" --json \
-           >"$TMP/d.json" 2>"$TMP/err" && [ ! -s "$TMP/err" ]; then ok
-    else bad "discrepancy $method --json: $(cat "$TMP/err")"; continue; fi
-    text=$("$QMC" discrepancy --method "$method" --in "$TMP/pts.csv")
-    check "discrepancy $method fields" "$TMP/d.json" '
+    if "$QMC" discrepancy --method "$method" --in "$tmp/pts.csv" --json \
+           >"$tmp/d.json" 2>"$tmp/err" && [ ! -s "$tmp/err" ]; then ok
+    else bad "discrepancy $method --json: $(cat "$tmp/err")"; continue; fi
+    text=$("$QMC" discrepancy --method "$method" --in "$tmp/pts.csv")
+    check "discrepancy $method fields" "$tmp/d.json" '
 want, text, squared = float(sys.argv[1]), sys.argv[2], sys.argv[3] == "True"
 assert j["method"] == sys.argv[4], j["method"]
 assert abs(j["value"] - want) <= 1e-10 * abs(want), (j["value"], want)
@@ -82,50 +72,35 @@ assert j["exact"] is True, j["exact"]
 assert j["points"] == 150 and j["dims"] == 3, (j["points"], j["dims"])
 assert set(j) == {"method", "value", "squared", "exact", "points", "dims"}, sorted(j)
 ' "$want" "$text" "$squared" "$method"
-done <"$TMP/scipy.txt"
+done <"$tmp/scipy.txt"
 
 # star: exact in 2D (brute force over the grid of critical boxes), a lower
 # bound above it once the boxes are too many; stdin works with --json.
-"$PY" - "$TMP/star.csv" "$TMP/star.txt" <<'PYEOF'
-import sys
-import numpy as np
-x = np.floor(np.random.default_rng(5).random((30, 2)) * 9) / 8
-with open(sys.argv[1], "w") as f:
-    for row in x:
-        f.write("%r,%r\n" % (float(row[0]), float(row[1])))
-gx = sorted(set(x[:, 0]) | {1.0}); gy = sorted(set(x[:, 1]) | {1.0})
-best = 0.0
-for a in gx:
-    for b in gy:
-        o = np.sum((x[:, 0] < a) & (x[:, 1] < b)) / len(x)
-        c = np.sum((x[:, 0] <= a) & (x[:, 1] <= b)) / len(x)
-        best = max(best, a * b - o, c - a * b)
-open(sys.argv[2], "w").write("%r\n" % best)
-PYEOF
-"$QMC" discrepancy --method star --json <"$TMP/star.csv" >"$TMP/d.json" 2>"$TMP/err"
-check "star 2D" "$TMP/d.json" '
+"$PY" "$(dirname "$0")/star2d.py" 5 30 9 "$tmp/star.csv" "$tmp/star.txt"
+"$QMC" discrepancy --method star --json <"$tmp/star.csv" >"$tmp/d.json" 2>"$tmp/err"
+check "star 2D" "$tmp/d.json" '
 want = float(sys.argv[1])
 assert abs(j["value"] - want) <= 1e-12, (j["value"], want)
 assert j["exact"] is True and j["squared"] is False and j["method"] == "star", j
 assert j["points"] == 30 and j["dims"] == 2, j
-' "$(cat "$TMP/star.txt")"
-"$QMC" points --seq sobol --dims 5 --count 3000 >"$TMP/p5.csv"
-"$QMC" discrepancy --method star --json --in "$TMP/p5.csv" >"$TMP/d.json" 2>"$TMP/err"
-check "star 5D is a bound" "$TMP/d.json" '
+' "$(cat "$tmp/star.txt")"
+"$QMC" points --seq sobol --dims 5 --count 3000 >"$tmp/p5.csv"
+"$QMC" discrepancy --method star --json --in "$tmp/p5.csv" >"$tmp/d.json" 2>"$tmp/err"
+check "star 5D is a bound" "$tmp/d.json" '
 assert j["exact"] is False, j
 assert 0 < j["value"] < 1 and j["dims"] == 5 and j["points"] == 3000, j
 '
-if grep -q 'lower bound' "$TMP/err"; then ok; else bad "star 5D --json: no stderr note"; fi
+if grep -q 'lower bound' "$tmp/err"; then ok; else bad "star 5D --json: no stderr note"; fi
 
 # ---- spectrum ----------------------------------------------------------------
 # 200 Owen-scrambled Sobol points, 2 realisations (seeds 9 and 10), K = 6.
 for s in 9 10; do
-    "$QMC" points --seq sobol --dims 2 --scramble owen --seed $s --count 200 >"$TMP/sp$s.csv"
+    "$QMC" points --seq sobol --dims 2 --scramble owen --seed $s --count 200 >"$tmp/sp$s.csv"
 done
 if "$QMC" spectrum --seq sobol --scramble owen --seed 9 --count 200 --reps 2 --freq 6 \
-       --csv "$TMP/s.csv" --json >"$TMP/s.json" 2>"$TMP/err" && [ ! -s "$TMP/err" ] &&
-   [ -s "$TMP/s.csv" ]; then ok; else bad "spectrum --json --csv: $(cat "$TMP/err")"; fi
-check "spectrum fields and oracle" "$TMP/s.json" '
+       --csv "$tmp/s.csv" --json >"$tmp/s.json" 2>"$tmp/err" && [ ! -s "$tmp/err" ] &&
+   [ -s "$tmp/s.csv" ]; then ok; else bad "spectrum --json --csv: $(cat "$tmp/err")"; fi
+check "spectrum fields and oracle" "$tmp/s.json" '
 import numpy as np
 csv_path, p9, p10 = sys.argv[1:4]
 K = 6
@@ -152,26 +127,26 @@ assert r[0] == 200, r[0]
 rows = open(csv_path).read().split("\n")
 assert rows[0] == "frequency,power", rows[0]
 assert [float(line.split(",")[1]) for line in rows[1:] if line] == r, "CSV differs"
-' "$TMP/s.csv" "$TMP/sp9.csv" "$TMP/sp10.csv"
+' "$tmp/s.csv" "$tmp/sp9.csv" "$tmp/sp10.csv"
 
 # --json alone writes no file; --png alone keeps stdout empty, as before.
-(cd "$TMP" && "$QMC" spectrum --seq halton --count 64 --freq 3 --json >"$TMP/h.json")
-check "spectrum --json alone" "$TMP/h.json" '
+(cd "$tmp" && "$QMC" spectrum --seq halton --count 64 --freq 3 --json >"$tmp/h.json")
+check "spectrum --json alone" "$tmp/h.json" '
 assert j["csv"] is None and j["png"] is None and j["seq"] == "halton", j
 assert j["scramble"] == "none" and len(j["radial_power"]) == 4, j
 '
-if [ "$(ls "$TMP" | grep -c '\.png$')" -eq 0 ]; then ok; else bad "spectrum --json alone wrote a PNG"; fi
-"$QMC" spectrum --seq sobol --count 64 --freq 3 --png "$TMP/only.png" >"$TMP/out" 2>"$TMP/err"
-if [ $? -eq 0 ] && [ ! -s "$TMP/out" ] && [ -s "$TMP/only.png" ] && [ ! -e "$TMP/s2.csv" ]
-then ok; else bad "spectrum --png alone: $(cat "$TMP/err")"; fi
+if [ "$(ls "$tmp" | grep -c '\.png$')" -eq 0 ]; then ok; else bad "spectrum --json alone wrote a PNG"; fi
+"$QMC" spectrum --seq sobol --count 64 --freq 3 --png "$tmp/only.png" >"$tmp/out" 2>"$tmp/err"
+if [ $? -eq 0 ] && [ ! -s "$tmp/out" ] && [ -s "$tmp/only.png" ] && [ ! -e "$tmp/s2.csv" ]
+then ok; else bad "spectrum --png alone: $(cat "$tmp/err")"; fi
 
 # ---- strings: the shared writer escapes what JSON requires ------------------------
 # A scene file whose name holds a quote, a backslash and a tab: integrate's
 # "integrand" member must give the exact name back.
-odd="$TMP/a\"b\\c	d.scene"
+odd="$tmp/a\"b\\c	d.scene"
 printf 'point 0 0 0\nnormal 0 0 1\nbrdf lambert 0.8\nlight sphere center 1 0.5 5 radius 0.6 radiance 10\n' >"$odd"
-"$QMC" integrate --scene "$odd" --method rqmc --n 256 --json >"$TMP/i.json" 2>"$TMP/err"
-check "escaped string" "$TMP/i.json" '
+"$QMC" integrate --scene "$odd" --method rqmc --n 256 --json >"$tmp/i.json" 2>"$tmp/err"
+check "escaped string" "$tmp/i.json" '
 assert j["integrand"] == sys.argv[1], (j["integrand"], sys.argv[1])
 ' "$odd"
 
@@ -179,33 +154,33 @@ assert j["integrand"] == sys.argv[1], (j["integrand"], sys.argv[1])
 expect_fail() { # NAME STDIN-TEXT ARGS...
     name=$1 input=$2
     shift 2
-    printf '%b' "$input" | "$QMC" "$@" >"$TMP/out" 2>"$TMP/err"
+    printf '%b' "$input" | "$QMC" "$@" >"$tmp/out" 2>"$tmp/err"
     rc=$?
-    if [ "$rc" -eq 2 ] && [ "$(wc -l <"$TMP/err")" -eq 1 ] && [ ! -s "$TMP/out" ]; then ok
-    else bad "$name: rc=$rc, stderr '$(cat "$TMP/err")', stdout '$(cat "$TMP/out")'"; fi
+    if [ "$rc" -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] && [ ! -s "$tmp/out" ]; then ok
+    else bad "$name: rc=$rc, stderr '$(cat "$tmp/err")', stdout '$(cat "$tmp/out")'"; fi
 }
 expect_fail "discrepancy --json bad input" '0.1,0.2\n0.3\n' discrepancy --method cd --json
 expect_fail "discrepancy --json=x" '0.5\n' discrepancy --method cd --json=x
 expect_fail "spectrum nothing to write" '' spectrum --seq sobol --count 8
 expect_fail "spectrum --json bad kind" '' spectrum --seq nope --count 8 --json
 expect_fail "ping --json without a daemon" '' ping --json
-expect_fail "ping --json unreachable" '' ping --json --connect "unix:$TMP/nobody.sock"
+expect_fail "ping --json unreachable" '' ping --json --connect "unix:$tmp/nobody.sock"
 
 # ---- ping, against a daemon started here ---------------------------------------
-"$QMCD" --foreground --listen "unix:$TMP/qmcd.sock" --threads 1 --ready-file "$TMP/ready" \
-    --max-frame 262144 --max-inflight 5 --max-points 123456 2>"$TMP/qmcd.log" &
+"$QMCD" --foreground --listen "unix:$tmp/qmcd.sock" --threads 1 --ready-file "$tmp/ready" \
+    --max-frame 262144 --max-inflight 5 --max-points 123456 2>"$tmp/qmcd.log" &
 pid=$!
 i=0
-while [ ! -s "$TMP/ready" ] && kill -0 "$pid" 2>/dev/null && [ $i -lt 2000 ]; do
+while [ ! -s "$tmp/ready" ] && kill -0 "$pid" 2>/dev/null && [ $i -lt 2000 ]; do
     sleep 0.01
     i=$((i + 1))
 done
-if [ -s "$TMP/ready" ]; then
+if [ -s "$tmp/ready" ]; then
     ok
     fingerprint=$("$QMC" --version | sed -n 's/^Sobol table fingerprint: //p')
-    if "$QMC" ping --connect "unix:$TMP/qmcd.sock" --count 3 --json >"$TMP/p.json" 2>"$TMP/err" &&
-       [ ! -s "$TMP/err" ]; then ok; else bad "ping --json: $(cat "$TMP/err")"; fi
-    check "ping fields" "$TMP/p.json" '
+    if "$QMC" ping --connect "unix:$tmp/qmcd.sock" --count 3 --json >"$tmp/p.json" 2>"$tmp/err" &&
+       [ ! -s "$tmp/err" ]; then ok; else bad "ping --json: $(cat "$tmp/err")"; fi
+    check "ping fields" "$tmp/p.json" '
 fp = sys.argv[1]
 assert len(fp) == 16, fp
 assert j["server"] == "qmcd" and j["engine"].startswith("libqmc "), (j["server"], j["engine"])
@@ -214,15 +189,15 @@ assert (j["max_frame_bytes"], j["max_inflight"], j["max_points"]) == (262144, 5,
 assert len(j["rtt_ms"]) == 3 and all(isinstance(t, float) and t > 0 for t in j["rtt_ms"]), j["rtt_ms"]
 ' "$fingerprint"
     # QMC_ENDPOINT works for --json too, and the text still says the same.
-    QMC_ENDPOINT="unix:$TMP/qmcd.sock" "$QMC" ping --json >"$TMP/p1.json" 2>"$TMP/err"
-    check "ping --json via QMC_ENDPOINT" "$TMP/p1.json" '
+    QMC_ENDPOINT="unix:$tmp/qmcd.sock" "$QMC" ping --json >"$tmp/p1.json" 2>"$tmp/err"
+    check "ping --json via QMC_ENDPOINT" "$tmp/p1.json" '
 assert len(j["rtt_ms"]) == 1, j
 '
-    "$QMC" ping --connect "unix:$TMP/qmcd.sock" >"$TMP/p.txt"
-    if grep -q "^sobol      $fingerprint (the same table as this qmc)$" "$TMP/p.txt"
-    then ok; else bad "ping text: $(cat "$TMP/p.txt")"; fi
+    "$QMC" ping --connect "unix:$tmp/qmcd.sock" >"$tmp/p.txt"
+    if grep -q "^sobol      $fingerprint (the same table as this qmc)$" "$tmp/p.txt"
+    then ok; else bad "ping text: $(cat "$tmp/p.txt")"; fi
 else
-    bad "qmcd not ready: $(cat "$TMP/qmcd.log")"
+    bad "qmcd not ready: $(cat "$tmp/qmcd.log")"
 fi
 if [ -n "$pid" ]; then
     kill "$pid"
@@ -230,5 +205,4 @@ if [ -n "$pid" ]; then
     pid=
 fi
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+finish

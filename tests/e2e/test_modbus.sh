@@ -33,7 +33,6 @@ PEER="/usr/bin/python3 $here/modbus_peer.py"
 # variable is cleared once the test has stopped that process itself.
 pid= socat_pid= stall_pid= lim_pid=
 term_vars="stall_pid lim_pid pid socat_pid"
-trap 'exit 1' INT TERM
 # expect NAME CONDITION-EXIT-STATUS: ok when the previous command's test held.
 check() { if [ "$2" -eq 0 ]; then ok; else bad "$1"; fi; }
 

@@ -17,17 +17,11 @@ set -u
 : "${QMC:?set QMC to the qmc binary}"
 : "${BUILD:?set BUILD to the build directory}"
 PY=/usr/bin/python3
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/qmc-points.XXXXXX") || exit 1
-trap 'rm -rf "$TMP"' EXIT INT TERM
-
-passed=0
-failed=0
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
+. "$(dirname "$0")/lib.sh"
 
 # ---- known answers ------------------------------------------------------------
 # The first 8 points of Sobol' in 3D (Joe & Kuo, new-joe-kuo-6.21201).
-cat >"$TMP/sobol3.want" <<'EOF'
+cat >"$tmp/sobol3.want" <<'EOF'
 0,0,0
 0.5,0.5,0.5
 0.25,0.75,0.75
@@ -37,27 +31,27 @@ cat >"$TMP/sobol3.want" <<'EOF'
 0.375,0.375,0.625
 0.875,0.875,0.125
 EOF
-if "$QMC" points --seq sobol --dims 3 --count 8 >"$TMP/sobol3.got" 2>"$TMP/err" &&
-   cmp -s "$TMP/sobol3.got" "$TMP/sobol3.want" && [ ! -s "$TMP/err" ]; then
+if "$QMC" points --seq sobol --dims 3 --count 8 >"$tmp/sobol3.got" 2>"$tmp/err" &&
+   cmp -s "$tmp/sobol3.got" "$tmp/sobol3.want" && [ ! -s "$tmp/err" ]; then
     ok
 else
-    bad "sobol d=3 known answers: $(tr '\n' ' ' <"$TMP/sobol3.got") $(cat "$TMP/err")"
+    bad "sobol d=3 known answers: $(tr '\n' ' ' <"$tmp/sobol3.got") $(cat "$tmp/err")"
 fi
 
 # ---- SciPy oracle ---------------------------------------------------------------
-# oracle NAME PYTHON-CHECK QMC-ARGS...: writes f64 to $TMP/NAME.f64, then runs
+# oracle NAME PYTHON-CHECK QMC-ARGS...: writes f64 to $tmp/NAME.f64, then runs
 # the check with argv[1] = that file; the check prints why it failed.
 oracle() {
     name=$1 check=$2
     shift 2
-    if ! "$QMC" points "$@" --format f64 >"$TMP/$name.f64" 2>"$TMP/err"; then
-        bad "$name: qmc failed: $(cat "$TMP/err")"
+    if ! "$QMC" points "$@" --format f64 >"$tmp/$name.f64" 2>"$tmp/err"; then
+        bad "$name: qmc failed: $(cat "$tmp/err")"
         return
     fi
-    if "$PY" -c "$check" "$TMP/$name.f64" >"$TMP/why" 2>&1; then
+    if "$PY" -c "$check" "$tmp/$name.f64" >"$tmp/why" 2>&1; then
         ok
     else
-        bad "$name: $(tail -n 3 "$TMP/why" | tr '\n' ' ')"
+        bad "$name: $(tail -n 3 "$tmp/why" | tr '\n' ' ')"
     fi
 }
 # SciPy's step i is the Gray-code point: our index i ^ (i >> 1).
@@ -95,18 +89,18 @@ fmt_args="--seq sobol --scramble owen --seed 7 --dims 4 --count 100 --start 1234
 fmt_ok=1
 for f in f64 f32 u32 csv; do
     # shellcheck disable=SC2086
-    if ! "$QMC" points $fmt_args --format "$f" >"$TMP/fmt.$f" 2>"$TMP/err"; then
-        bad "format $f: $(cat "$TMP/err")"
+    if ! "$QMC" points $fmt_args --format "$f" >"$tmp/fmt.$f" 2>"$tmp/err"; then
+        bad "format $f: $(cat "$tmp/err")"
         fmt_ok=0
     fi
 done
 for f in "f64 3200" "f32 1600" "u32 1600"; do
     # shellcheck disable=SC2086
     set -- $f
-    size=$(wc -c <"$TMP/fmt.$1" | tr -d ' ')
+    size=$(wc -c <"$tmp/fmt.$1" | tr -d ' ')
     if [ "$size" -eq "$2" ]; then ok; else bad "format $1: $size bytes, want $2"; fi
 done
-if [ "$fmt_ok" -eq 1 ] && "$PY" - "$TMP/fmt" >"$TMP/why" 2>&1 <<'PYEOF'
+if [ "$fmt_ok" -eq 1 ] && "$PY" - "$tmp/fmt" >"$tmp/why" 2>&1 <<'PYEOF'
 import sys, numpy as np
 p = sys.argv[1]
 x = np.fromfile(p + ".f64", dtype="<f8").reshape(100, 4)
@@ -122,7 +116,7 @@ c = np.array([[float(v) for v in r.split(",")] for r in rows[:-1]])
 assert np.array_equal(c, x), "csv != f64"
 assert all(repr(float(v)) == repr(float(w)) for v, w in zip(c.ravel(), x.ravel()))
 PYEOF
-then ok; else bad "formats disagree: $(tail -n 2 "$TMP/why" | tr '\n' ' ')"; fi
+then ok; else bad "formats disagree: $(tail -n 2 "$tmp/why" | tr '\n' ' ')"; fi
 
 # ---- random access == batch ----------------------------------------------------
 # ra NAME START0 COUNT "S1 S2 ..." QMC-ARGS...: the batch [start0, start0 +
@@ -131,20 +125,20 @@ then ok; else bad "formats disagree: $(tail -n 2 "$TMP/why" | tr '\n' ' ')"; fi
 ra() {
     name=$1 s0=$2 n=$3 picks=$4
     shift 4
-    if ! "$QMC" points "$@" --start "$s0" --count "$n" >"$TMP/batch" 2>"$TMP/err"; then
-        bad "$name batch: $(cat "$TMP/err")"
+    if ! "$QMC" points "$@" --start "$s0" --count "$n" >"$tmp/batch" 2>"$tmp/err"; then
+        bad "$name batch: $(cat "$tmp/err")"
         return
     fi
-    if [ "$(wc -l <"$TMP/batch")" -eq "$n" ] &&
-       awk -F, '{ for (i = 1; i <= NF; i++) if (!($i >= 0 && $i < 1)) exit 1 }' "$TMP/batch"
+    if [ "$(wc -l <"$tmp/batch")" -eq "$n" ] &&
+       awk -F, '{ for (i = 1; i <= NF; i++) if (!($i >= 0 && $i < 1)) exit 1 }' "$tmp/batch"
     then ok; else bad "$name: batch not $n rows in [0,1)"; fi
     for s in $picks; do
-        one=$("$QMC" points "$@" --start "$s" --count 1 2>"$TMP/err")
-        row=$(sed -n "$((s - s0 + 1))p" "$TMP/batch")
+        one=$("$QMC" points "$@" --start "$s" --count 1 2>"$tmp/err")
+        row=$(sed -n "$((s - s0 + 1))p" "$tmp/batch")
         if [ -n "$one" ] && [ "$one" = "$row" ]; then
             ok
         else
-            bad "$name: --start $s gives '$one', batch row is '$row' $(cat "$TMP/err")"
+            bad "$name: --start $s gives '$one', batch row is '$row' $(cat "$tmp/err")"
         fi
     done
 }
@@ -164,10 +158,10 @@ ra "lhs" 0 1000 "0 1 500 999" --seq lhs --dims 3 --set-size 1000 --seed 13
 # ---- determinism ---------------------------------------------------------------
 det_args="--seq sobol --dims 8 --scramble owen --seed 0xdeadbeef --count 65536 --format f64"
 # shellcheck disable=SC2086
-"$QMC" points $det_args >"$TMP/det1" 2>/dev/null
+"$QMC" points $det_args >"$tmp/det1" 2>/dev/null
 # shellcheck disable=SC2086
-"$QMC" points $det_args >"$TMP/det2" 2>/dev/null
-if [ "$(wc -c <"$TMP/det1")" -eq $((65536 * 8 * 8)) ] && cmp -s "$TMP/det1" "$TMP/det2"
+"$QMC" points $det_args >"$tmp/det2" 2>/dev/null
+if [ "$(wc -c <"$tmp/det1")" -eq $((65536 * 8 * 8)) ] && cmp -s "$tmp/det1" "$tmp/det2"
 then ok; else bad "owen 2^16 f64: two runs differ or wrong size"; fi
 
 # ---- error paths ---------------------------------------------------------------
@@ -176,14 +170,14 @@ then ok; else bad "owen 2^16 f64: two runs differ or wrong size"; fi
 expect_fail() {
     name=$1 pat=$2
     shift 2
-    "$QMC" points "$@" >"$TMP/out" 2>"$TMP/err" </dev/null
+    "$QMC" points "$@" >"$tmp/out" 2>"$tmp/err" </dev/null
     rc=$?
-    lines=$(wc -l <"$TMP/err")
-    if [ "$rc" -eq 2 ] && [ "$lines" -eq 1 ] && [ ! -s "$TMP/out" ] &&
-       grep -q '^qmc: ' "$TMP/err" && grep -q -- "$pat" "$TMP/err"; then
+    lines=$(wc -l <"$tmp/err")
+    if [ "$rc" -eq 2 ] && [ "$lines" -eq 1 ] && [ ! -s "$tmp/out" ] &&
+       grep -q '^qmc: ' "$tmp/err" && grep -q -- "$pat" "$tmp/err"; then
         ok
     else
-        bad "$name: rc=$rc, $lines stderr lines '$(cat "$TMP/err")', $(wc -c <"$TMP/out") stdout bytes"
+        bad "$name: rc=$rc, $lines stderr lines '$(cat "$tmp/err")', $(wc -c <"$tmp/out") stdout bytes"
     fi
 }
 expect_fail "unknown --seq" "nope" --seq nope
@@ -206,22 +200,21 @@ expect_fail "stray argument" "stray" --seq sobol stray
 # ---- --out ---------------------------------------------------------------------
 out_args="--seq halton --scramble owen --seed 3 --dims 7 --count 5000 --format f64"
 # shellcheck disable=SC2086
-"$QMC" points $out_args >"$TMP/stdout.f64" 2>/dev/null
+"$QMC" points $out_args >"$tmp/stdout.f64" 2>/dev/null
 # shellcheck disable=SC2086
-if "$QMC" points $out_args --out "$TMP/file.f64" >"$TMP/out" 2>"$TMP/err" &&
-   [ ! -s "$TMP/out" ] && [ ! -s "$TMP/err" ] && [ -s "$TMP/stdout.f64" ] &&
-   cmp -s "$TMP/file.f64" "$TMP/stdout.f64"; then
+if "$QMC" points $out_args --out "$tmp/file.f64" >"$tmp/out" 2>"$tmp/err" &&
+   [ ! -s "$tmp/out" ] && [ ! -s "$tmp/err" ] && [ -s "$tmp/stdout.f64" ] &&
+   cmp -s "$tmp/file.f64" "$tmp/stdout.f64"; then
     ok
 else
-    bad "--out differs from stdout: $(cat "$TMP/err")"
+    bad "--out differs from stdout: $(cat "$tmp/err")"
 fi
-mkdir "$TMP/o"
-expect_fail "--out with bad --dims" "--dims" --seq sobol --dims 0 --out "$TMP/o/bad.csv"
-if [ -z "$(ls -A "$TMP/o")" ]; then ok; else bad "--out error left: $(ls -A "$TMP/o")"; fi
-expect_fail "--out past the end" "4294967296" --seq sobol --start 4294967295 --count 2 --out "$TMP/o/end.csv"
-if [ -z "$(ls -A "$TMP/o")" ]; then ok; else bad "--out range error left: $(ls -A "$TMP/o")"; fi
-expect_fail "--out missing dir" "--out" --seq sobol --out "$TMP/nonexistent/p.csv"
-if [ ! -e "$TMP/nonexistent" ]; then ok; else bad "--out created a directory"; fi
+mkdir "$tmp/o"
+expect_fail "--out with bad --dims" "--dims" --seq sobol --dims 0 --out "$tmp/o/bad.csv"
+if [ -z "$(ls -A "$tmp/o")" ]; then ok; else bad "--out error left: $(ls -A "$tmp/o")"; fi
+expect_fail "--out past the end" "4294967296" --seq sobol --start 4294967295 --count 2 --out "$tmp/o/end.csv"
+if [ -z "$(ls -A "$tmp/o")" ]; then ok; else bad "--out range error left: $(ls -A "$tmp/o")"; fi
+expect_fail "--out missing dir" "--out" --seq sobol --out "$tmp/nonexistent/p.csv"
+if [ ! -e "$tmp/nonexistent" ]; then ok; else bad "--out created a directory"; fi
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+finish

@@ -16,13 +16,7 @@ set -u
 : "${QMC:?set QMC to the qmc binary}"
 : "${BUILD:?set BUILD to the build directory}"
 PY=/usr/bin/python3
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/qmc-quality.XXXXXX") || exit 1
-trap 'rm -rf "$TMP"' EXIT INT TERM
-
-passed=0
-failed=0
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
+. "$(dirname "$0")/lib.sh"
 
 # rel_close GOT WANT TOL: |got - want| <= tol * max(|want|, 1e-300)
 rel_close() {
@@ -38,8 +32,8 @@ for case in "1 1 3" "2 7 1" "3 20 2" "4 64 3" "5 100 5" "6 33 10" \
             "7 250 2" "8 40 20"; do
     set -- $case
     seed=$1 n=$2 d=$3
-    csv="$TMP/pts_$seed.csv"
-    exp="$TMP/exp_$seed.txt"
+    csv="$tmp/pts_$seed.csv"
+    exp="$tmp/exp_$seed.txt"
     if ! "$PY" - "$seed" "$n" "$d" "$csv" "$exp" <<'PYEOF'
 import sys
 import numpy as np
@@ -63,47 +57,31 @@ PYEOF
         continue
     fi
     while read -r method want; do
-        got=$("$QMC" discrepancy --method "$method" --in "$csv" 2>"$TMP/err")
+        got=$("$QMC" discrepancy --method "$method" --in "$csv" 2>"$tmp/err")
         if [ $? -eq 0 ] && rel_close "$got" "$want" 1e-10; then
             ok
         else
-            bad "discrepancy $method seed=$seed n=$n d=$d: got '$got' want $want ($(cat "$TMP/err"))"
+            bad "discrepancy $method seed=$seed n=$n d=$d: got '$got' want $want ($(cat "$tmp/err"))"
         fi
     done <"$exp"
 done
 
 # stdin is the default input.
-want=$(awk '$1 == "cd" { print $2 }' "$TMP/exp_3.txt")
-got=$("$QMC" discrepancy --method cd <"$TMP/pts_3.csv")
+want=$(awk '$1 == "cd" { print $2 }' "$tmp/exp_3.txt")
+got=$("$QMC" discrepancy --method cd <"$tmp/pts_3.csv")
 if rel_close "$got" "$want" 1e-10; then ok; else bad "stdin: got '$got' want $want"; fi
 
 # ---- star discrepancy vs brute force ---------------------------------------
-"$PY" - "$TMP/star.csv" "$TMP/star.txt" <<'PYEOF'
-import sys
-import numpy as np
-rng = np.random.default_rng(99)
-x = np.floor(rng.random((40, 2)) * 17) / 16   # ties and coordinates = 1
-with open(sys.argv[1], "w") as f:
-    for row in x:
-        f.write("%r,%r\n" % (float(row[0]), float(row[1])))
-gx = sorted(set(x[:, 0]) | {1.0}); gy = sorted(set(x[:, 1]) | {1.0})
-best = 0.0
-for a in gx:
-    for b in gy:
-        o = np.sum((x[:, 0] < a) & (x[:, 1] < b)) / len(x)
-        c = np.sum((x[:, 0] <= a) & (x[:, 1] <= b)) / len(x)
-        best = max(best, a * b - o, c - a * b)
-open(sys.argv[2], "w").write("%r\n" % best)
-PYEOF
-want=$(cat "$TMP/star.txt")
-got=$("$QMC" discrepancy --method star --in "$TMP/star.csv" 2>"$TMP/err")
-if [ $? -eq 0 ] && rel_close "$got" "$want" 1e-12 && [ ! -s "$TMP/err" ]; then
+"$PY" "$(dirname "$0")/star2d.py" 99 40 17 "$tmp/star.csv" "$tmp/star.txt"
+want=$(cat "$tmp/star.txt")
+got=$("$QMC" discrepancy --method star --in "$tmp/star.csv" 2>"$tmp/err")
+if [ $? -eq 0 ] && rel_close "$got" "$want" 1e-12 && [ ! -s "$tmp/err" ]; then
     ok
 else
     bad "star 2D: got '$got' want $want"
 fi
 # Above 2D with many points the result is a bound, said on stderr.
-got=$("$QMC" discrepancy --method star --in "$TMP/pts_5.csv" 2>"$TMP/err")
+got=$("$QMC" discrepancy --method star --in "$tmp/pts_5.csv" 2>"$tmp/err")
 if [ $? -eq 0 ] && [ -n "$got" ]; then ok; else bad "star 5D: '$got'"; fi
 
 # ---- error paths --------------------------------------------------------------
@@ -111,13 +89,13 @@ if [ $? -eq 0 ] && [ -n "$got" ]; then ok; else bad "star 5D: '$got'"; fi
 expect_fail() {
     name=$1 input=$2
     shift 2
-    printf '%b' "$input" | "$QMC" "$@" >"$TMP/out" 2>"$TMP/err"
+    printf '%b' "$input" | "$QMC" "$@" >"$tmp/out" 2>"$tmp/err"
     rc=$?
-    lines=$(wc -l <"$TMP/err")
-    if [ "$rc" -eq 2 ] && [ "$lines" -eq 1 ] && [ ! -s "$TMP/out" ]; then
+    lines=$(wc -l <"$tmp/err")
+    if [ "$rc" -eq 2 ] && [ "$lines" -eq 1 ] && [ ! -s "$tmp/out" ]; then
         ok
     else
-        bad "$name: rc=$rc, $lines stderr lines, stdout '$(cat "$TMP/out")'"
+        bad "$name: rc=$rc, $lines stderr lines, stdout '$(cat "$tmp/out")'"
     fi
 }
 expect_fail "ragged rows" '0.1,0.2\n0.3\n' discrepancy --method cd
@@ -129,21 +107,21 @@ expect_fail "nan" '0.1,nan\n' discrepancy --method cd
 expect_fail "unknown method" '0.1,0.2\n' discrepancy --method foo
 expect_fail "no method" '0.1,0.2\n' discrepancy
 expect_fail "no points" '' discrepancy --method cd
-expect_fail "missing file" '' discrepancy --method cd --in "$TMP/nonexistent"
+expect_fail "missing file" '' discrepancy --method cd --in "$tmp/nonexistent"
 expect_fail "unknown option" '0.5\n' discrepancy --method cd --bogus
-expect_fail "spectrum without count" '' spectrum --seq sobol --png "$TMP/a.png" --csv "$TMP/a.csv"
-expect_fail "spectrum bad kind" '' spectrum --seq nope --count 8 --png "$TMP/a.png" --csv "$TMP/a.csv"
-expect_fail "spectrum too much work" '' spectrum --seq random --count 1048576 --reps 1024 --freq 256 --png "$TMP/a.png" --csv "$TMP/a.csv"
+expect_fail "spectrum without count" '' spectrum --seq sobol --png "$tmp/a.png" --csv "$tmp/a.csv"
+expect_fail "spectrum bad kind" '' spectrum --seq nope --count 8 --png "$tmp/a.png" --csv "$tmp/a.csv"
+expect_fail "spectrum too much work" '' spectrum --seq random --count 1048576 --reps 1024 --freq 256 --png "$tmp/a.png" --csv "$tmp/a.csv"
 
 # The messages name the line.
-printf '0.1,0.2\n0.3,0.4\n0.5\n' | "$QMC" discrepancy --method cd 2>"$TMP/err" >/dev/null
-if grep -q 'line 3: 1 coordinate, expected 2' "$TMP/err"; then ok; else bad "ragged message: $(cat "$TMP/err")"; fi
-printf '0.1,0.2\n0.3,1.5\n' | "$QMC" discrepancy --method cd 2>"$TMP/err" >/dev/null
-if grep -q 'line 2: coordinate 1.5 outside \[0,1\]' "$TMP/err"; then ok; else bad "range message: $(cat "$TMP/err")"; fi
+printf '0.1,0.2\n0.3,0.4\n0.5\n' | "$QMC" discrepancy --method cd 2>"$tmp/err" >/dev/null
+if grep -q 'line 3: 1 coordinate, expected 2' "$tmp/err"; then ok; else bad "ragged message: $(cat "$tmp/err")"; fi
+printf '0.1,0.2\n0.3,1.5\n' | "$QMC" discrepancy --method cd 2>"$tmp/err" >/dev/null
+if grep -q 'line 2: coordinate 1.5 outside \[0,1\]' "$tmp/err"; then ok; else bad "range message: $(cat "$tmp/err")"; fi
 # Too many points: the cap is stated.
-awk 'BEGIN { for (i = 0; i < 10001; i++) print (i % 97) / 97 }' >"$TMP/big.csv"
-"$QMC" discrepancy --method cd --in "$TMP/big.csv" >"$TMP/out" 2>"$TMP/err"
-if [ $? -eq 2 ] && grep -q '10000 points' "$TMP/err" && [ ! -s "$TMP/out" ]; then ok; else bad "point cap: $(cat "$TMP/err")"; fi
+awk 'BEGIN { for (i = 0; i < 10001; i++) print (i % 97) / 97 }' >"$tmp/big.csv"
+"$QMC" discrepancy --method cd --in "$tmp/big.csv" >"$tmp/out" 2>"$tmp/err"
+if [ $? -eq 2 ] && grep -q '10000 points' "$tmp/err" && [ ! -s "$tmp/out" ]; then ok; else bad "point cap: $(cat "$tmp/err")"; fi
 
 # --help documents the squaring.
 if "$QMC" discrepancy --help | grep -q SQUARED; then ok; else bad "--help"; fi
@@ -174,21 +152,20 @@ PYEOF
 }
 # K = 20: side 41, scaled by ceil(256/41) = 7 to 287 pixels.
 if "$QMC" spectrum --seq sobol --count 256 --freq 20 \
-       --png "$TMP/s.png" --csv "$TMP/s.csv" 2>"$TMP/err" &&
-   check_png "$TMP/s.png" 287; then ok; else bad "sobol spectrum png: $(cat "$TMP/err")"; fi
-if [ "$(head -n 1 "$TMP/s.csv")" = "frequency,power" ] &&
-   [ "$(wc -l <"$TMP/s.csv")" -eq 22 ] &&
-   [ "$(sed -n 2p "$TMP/s.csv")" = "0,256" ]; then ok; else bad "sobol spectrum csv"; fi
+       --png "$tmp/s.png" --csv "$tmp/s.csv" 2>"$tmp/err" &&
+   check_png "$tmp/s.png" 287; then ok; else bad "sobol spectrum png: $(cat "$tmp/err")"; fi
+if [ "$(head -n 1 "$tmp/s.csv")" = "frequency,power" ] &&
+   [ "$(wc -l <"$tmp/s.csv")" -eq 22 ] &&
+   [ "$(sed -n 2p "$tmp/s.csv")" = "0,256" ]; then ok; else bad "sobol spectrum csv"; fi
 # K = 200: side 401 > 256, no scaling; one IDAT of several stored blocks.
 if "$QMC" spectrum --seq random --seed 5 --count 64 --reps 3 --freq 200 \
-       --png "$TMP/r.png" --csv "$TMP/r.csv" 2>"$TMP/err" &&
-   check_png "$TMP/r.png" 401; then ok; else bad "random spectrum png: $(cat "$TMP/err")"; fi
+       --png "$tmp/r.png" --csv "$tmp/r.csv" 2>"$tmp/err" &&
+   check_png "$tmp/r.png" 401; then ok; else bad "random spectrum png: $(cat "$tmp/err")"; fi
 # Random points: mean power near 1 away from DC (3 reps, many k per bin).
-if awk -F, 'NR > 20 { s += $2; n++ } END { m = s / n; exit !(m > 0.8 && m < 1.2) }' "$TMP/r.csv"
+if awk -F, 'NR > 20 { s += $2; n++ } END { m = s / n; exit !(m > 0.8 && m < 1.2) }' "$tmp/r.csv"
 then ok; else bad "random spectrum level"; fi
 # Sobol: the low-frequency hole (random points give about 1 there).
-if awk -F, 'NR >= 3 && NR <= 5 { if ($2 > 0.25) bad = 1 } END { exit bad }' "$TMP/s.csv"
-then ok; else bad "sobol low-frequency hole: $(sed -n 3,5p "$TMP/s.csv")"; fi
+if awk -F, 'NR >= 3 && NR <= 5 { if ($2 > 0.25) bad = 1 } END { exit bad }' "$tmp/s.csv"
+then ok; else bad "sobol low-frequency hole: $(sed -n 3,5p "$tmp/s.csv")"; fi
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+finish

@@ -24,8 +24,6 @@ set -u
 # stopped it itself and checked the exit status.
 pid=
 term_vars=pid
-trap 'exit 1' INT TERM
-unset QMC_ENDPOINT
 
 if [ ! -x "$QMCD" ]; then
     echo "test_remote: no daemon at $QMCD"

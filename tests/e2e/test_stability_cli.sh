@@ -15,7 +15,6 @@
 set -u
 : "${QMC:?QMC must name the qmc binary}"
 . "$(dirname "$0")/lib.sh"
-trap 'exit 1' INT TERM
 PY=/usr/bin/python3
 
 CASES=jump-step-1d,peak-gauss-1d,overflow-disc-2d,jump-disc-2d

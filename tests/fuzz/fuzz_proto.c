@@ -7,7 +7,11 @@
  * frame the decoder accepts must be canonical: encoding the decoded
  * message reproduces exactly the bytes consumed, encoded_size agrees, and
  * the re-encoded frame decodes again to the same length; the shared-memory
- * messages keep the bounds a receiver relies on.  Decoding must
+ * messages keep the bounds a receiver relies on.  Each accepted frame is
+ * also decoded as every older protocol version: what an older version
+ * accepts is the same message, re-encoded for that version to the same
+ * bytes, and it refuses only a JOB_RESULT with flags it does not define
+ * (PROTOCOL.md section 5).  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
  * The codec sources are compiled in here (with the fuzzer's coverage
@@ -22,6 +26,7 @@
 #include "../../protocol/codec.c"
 #include "../../protocol/fields.c"
 #include "../../protocol/messages.c"
+#include "../../protocol/result_flags.c"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -63,6 +68,22 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
         qmc_msg m2;
         if (qmc_proto_decode(again, (size_t)n, max_payload, &m2) != n || m2.type != m.type)
             __builtin_trap();
+        /* Older versions: the same frame, or a refusal of flags only. */
+        for (unsigned v = 1; v < QMC_PROTO_VERSION_MAX; v++) {
+            qmc_msg mv;
+            int nv = qmc_proto_decode_version(data + off, size - off, max_payload, v, &mv);
+            if (nv == QMC_EPROTO) {
+                if (m.type != QMC_MSG_JOB_RESULT ||
+                    (m.u.result.res.flags & ~qmc_proto_result_flags_defined(v)) == 0)
+                    __builtin_trap();
+                continue;
+            }
+            if (nv != n || mv.type != m.type ||
+                qmc_proto_encode_version(&mv, v, again,
+                                         QMC_PROTO_HEADER_BYTES + QMC_PROTO_MAX_PAYLOAD) != n ||
+                memcmp(again, data + off, (size_t)n) != 0)
+                __builtin_trap();
+        }
         /* Every list element and stats entry is readable. */
         if (m.type == QMC_MSG_INTEGRATE) {
             volatile double sink = 0;
