@@ -604,6 +604,17 @@ static int suspects_left(const cub_state *s, double est, double err)
  */
 #define DECAY_FLOOR 0x1p-9
 
+/* Whether a region's R7 and R5 agree to the last bit on a nonzero
+ * integral: a polynomial the rules integrate exactly (the stability
+ * suite's zero-poly case, an odd cubic whose integral is 0, so that only
+ * a bar of exactly 0 meets its relative tolerance), not an accident,
+ * which leaves a rounding-level difference.  The floor is kept off it.
+ * Both 0 is no such evidence: every node may have missed a peak. */
+static int exact_agreement(const double *rec)
+{
+    return rec[1] == 0.0 && rec[0] != 0.0;
+}
+
 /* The interrupt hook fired: no estimate, only the evaluations spent. */
 static int cancelled(const cub_state *s, qmc__msg *m, qmc_result *res)
 {
@@ -732,9 +743,9 @@ int qmc_cubature(const qmc_integrand *f, const qmc_cubature_opts *opts,
         /* A suspect's bar was the blind move, not the rule's. */
         const double parent_bar = how & SPLIT_SUSPECT ? old_rule_bar : old_err;
         const double floor_bar = DECAY_FLOOR * parent_bar;
-        if (a[1] < floor_bar) /* not fmax: a NaN bar stays NaN */
+        if (a[1] < floor_bar && !exact_agreement(a)) /* not fmax: NaN stays NaN */
             a[1] = floor_bar;
-        if (b[1] < floor_bar)
+        if (b[1] < floor_bar && !exact_agreement(b))
             b[1] = floor_bar;
         if (how & SPLIT_SUSPECT) {
             s.suspect_splits++;

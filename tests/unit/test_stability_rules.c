@@ -169,6 +169,30 @@ static void test_cubature_formerly_silent_scan_cases(void **state)
     }
 }
 
+/* The floor under a half's bar (cubature.c, DECAY_FLOOR) stays off a
+ * polynomial the rules integrate exactly: -1 + 2x integrates to 0, so
+ * only a bar of exactly 0 meets the relative tolerance, and with the floor
+ * on it the run spent its whole budget (999999 evaluations, not 21). */
+static void test_cubature_exact_polynomial_stops(void **state)
+{
+    (void)state;
+    const double a[] = {-1, 2};
+    qmc_testfn *fn = NULL;
+    char why[256];
+    assert_int_equal(qmc_testfn_new("poly", 1, a, 2, NULL, 0, &fn, why, sizeof why), 0);
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_CUBATURE;
+    s.max_evals = 1000000;
+    qmc_integrate_report rep;
+    assert_int_equal(qmc_integrate(&s, qmc_testfn_integrand(fn), NULL, NULL, NULL, &rep, why,
+                                   sizeof why), 0);
+    qmc_testfn_free(fn);
+    assert_false(rep.res.flags & (QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED));
+    assert_true(rep.res.evals < 1000);
+    assert_true(fabs(rep.res.estimate) <= 1e-15);
+}
+
 static void gl_97(qmc_integrate_spec *s) { s->n_axis = 97; }
 static void gl_2048(qmc_integrate_spec *s) { s->n_axis = 2048; }
 
@@ -204,6 +228,7 @@ int main(void)
         cmocka_unit_test(test_cubature_partial_peak),
         cmocka_unit_test(test_cubature_formerly_silent_scan_cases),
         cmocka_unit_test(test_gauss_legendre_unresolved_marginal),
+        cmocka_unit_test(test_cubature_exact_polynomial_stops),
     };
     return cmocka_run_group_tests_name("stability-rules", tests, NULL, NULL);
 }
