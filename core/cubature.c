@@ -530,9 +530,10 @@ static int is_suspect(const cub_state *s, uint32_t r)
 /* Whether a blind move passed the scale at which it matters.  At d = 1
  * too: it used to be left out because all 4 flags of a first version of
  * the check there, in a testpack Gaussian scan, were on correct answers,
- * but the chase now clears such a far side of a resolved peak, and a 1D
- * region beside a peak (a = 265.6, u = 0.236: 0.006674 with a bar 1e-5 of
- * the error) is 7 evaluations a split. */
+ * but the chase now clears such a far side of a resolved peak, a 1D
+ * region beside a peak can hide its tail (a = 126.8, u = 0.5236: one
+ * region's bar 1.1e-11 against its error 1.6e-7; a = 265.6, u = 0.236:
+ * 7.9 bars off in all), and a 1D split is 7 evaluations. */
 static int blind_seen(const cub_state *s, double est, double err)
 {
     /* An estimate of 0 is rule_evidence's to judge: against a tolerance of
