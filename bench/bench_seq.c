@@ -2,7 +2,8 @@
  * bench_seq.c - batch-fill speed of the sampling core against GSL's
  * quasi-random generators and memset of the same buffer, in one run.
  *
- * Rates are coordinates per second for f64 output.  Each measurement fills
+ * Rates are coordinates per second for f64 output (and, in one table,
+ * instances built per second).  Each measurement fills
  * a buffer of BUF_BYTES again and again (advancing the index, as a real
  * client would) for at least MIN_SECONDS, and the median of REPS such
  * measurements is reported.  The buffer is sized to stay in L2 so the
@@ -141,6 +142,61 @@ static void print_ratio(double num, double den)
         printf(" %9s", "n/a");
 }
 
+/*
+ * Instances built and freed per second (qmc_seq_new + qmc_seq_free, or
+ * gsl_qrng_alloc + gsl_qrng_free, which initialises), median of REPS.  A
+ * Modbus client or a POINTS request that changes kind, dims, scramble or
+ * seed pays one construction, so it is a per-request cost too.
+ */
+static double builds_per_second(int gen, uint32_t dims)
+{
+    double rates[REPS];
+    for (int r = 0; r < REPS; r++) {
+        double n = 0, t0 = now(), t;
+        do {
+            if (gen == GEN_SOBOL || gen == GEN_HALTON) {
+                qmc_seq_free(ours(gen == GEN_SOBOL ? QMC_SEQ_SOBOL : QMC_SEQ_HALTON, dims,
+                                  QMC_SCRAMBLE_NONE));
+            } else {
+                gsl_qrng *q = gsl_qrng_alloc(gen == GEN_GSL_SOBOL ? gsl_qrng_sobol
+                                                                  : gsl_qrng_halton, dims);
+                if (!q) {
+                    fprintf(stderr, "bench_seq: gsl_qrng_alloc failed\n");
+                    exit(1);
+                }
+                gsl_qrng_free(q);
+            }
+            n++;
+        } while ((t = now() - t0) < MIN_SECONDS);
+        rates[r] = n / t;
+    }
+    qsort(rates, REPS, sizeof rates[0], cmp_double);
+    return rates[REPS / 2];
+}
+
+static void print_builds(void)
+{
+    static const uint32_t dims_list[] = {2, 8, 32};
+    static const int gens[] = {GEN_SOBOL, GEN_HALTON, GEN_GSL_SOBOL, GEN_GSL_HALTON};
+    printf("Construction (new + free), thousand instances/s, median of %d\n", REPS);
+    printf("%5s", "dims");
+    for (size_t g = 0; g < 4; g++)
+        printf(" %11s", gen_names[gens[g]]);
+    printf(" | %9s %9s\n", "sob/gsl", "hal/gsl");
+    for (size_t k = 0; k < sizeof dims_list / sizeof dims_list[0]; k++) {
+        double r[4];
+        printf("%5u", dims_list[k]);
+        for (size_t g = 0; g < 4; g++) {
+            r[g] = builds_per_second(gens[g], dims_list[k]);
+            printf(" %11.1f", r[g] / 1e3);
+        }
+        /* Three decimals: GSL's halton_alloc only zeroes a state, so
+         * hal/gsl is far below 1 (it has no tables to build). */
+        printf(" | %8.3fx %8.3fx\n", r[0] / r[2], r[1] / r[3]);
+    }
+    printf("\n");
+}
+
 static void verdict(const char *what, double ratio, double target)
 {
     printf("  %-24s %6.2fx  (target >= %.1fx: %s)\n", what, ratio, target,
@@ -195,6 +251,7 @@ int main(int argc, char **argv)
     verdict("halton / gsl-halton", at32[GEN_HALTON] / at32[GEN_GSL_HALTON], 10.0);
     printf("\n");
 
+    print_builds();
     printf("Same at d = 32 with a 64 MiB buffer (DRAM-bound), million coordinates/s\n");
     const int dram_gens[] = {GEN_MEMSET, GEN_SOBOL, GEN_SOBOL_OWEN, GEN_GSL_SOBOL};
     for (size_t g = 0; g < sizeof dram_gens / sizeof dram_gens[0]; g++) {

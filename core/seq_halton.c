@@ -109,12 +109,20 @@ static void init_low_part(halton_dim *h, uint32_t radical_index, uint64_t *table
         h->low_digits++;
     }
     h->low_slot = (int32_t)radical_index;
+    /* Entry lo = q * base + d has digit 0 = d, of weight w0, and q's
+     * digits one place lower: q's entry divided by base, exactly (every
+     * weight is a power of base above 1, as digits > low_digits).  One
+     * pass, not a digit expansion per entry with each weight rebuilt:
+     * that was ~100k multiplies per sequence built (16-26 us, ten times a
+     * Sobol instance), paid whenever a Modbus client or a request asks for
+     * a new Halton spec. */
+    const uint64_t w0 = digit_weight(h, 0);
     uint64_t *t = tables + (size_t)radical_index * LOW_MAX;
-    for (uint32_t lo = 0; lo < h->low_period; lo++) {
-        uint64_t r = 0, i = lo;
-        for (uint32_t k = 0; k < h->low_digits; k++, i /= h->base)
-            r += (i % h->base) * digit_weight(h, k);
-        t[lo] = r;
+    t[0] = 0;
+    for (uint32_t q = 0; q < h->low_period / h->base; q++) {
+        const uint64_t upper = t[q] / h->base;
+        for (uint32_t d = 0; d < h->base; d++)
+            t[q * h->base + d] = d * w0 + upper;
     }
 }
 

@@ -21,7 +21,7 @@ run_peer "$PEER" flags_compat "unix:$SOCK"
 # The library's client negotiates version 3 and decodes for it: the flag
 # arrives, and with it the JSON key.
 if "$QMC" integrate --connect "unix:$SOCK" --integrand genz-gaussian --dims 2 \
-        --a 400,400 --u 0.123,0.777 --method clenshaw-curtis --json > "$tmp/cli.json" \
+        --a 5000,5000 --u 0.123,0.777 --method clenshaw-curtis --json > "$tmp/cli.json" \
         2> "$tmp/cli.err" && grep -q '"unresolved"' "$tmp/cli.json" &&
         grep -q '"error_unreliable"' "$tmp/cli.json"; then
     ok

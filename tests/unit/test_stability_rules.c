@@ -34,6 +34,8 @@ static void test_rules_miss_narrow_peak(void **state)
     const double truth = gaussian_truth(2, a2, u2);
     assert_true(fabs(truth - 1.96349540849362e-05) < 1e-15);
     for (size_t i = 0; i < sizeof rules / sizeof rules[0]; i++) {
+        if (rules[i] == QMC_METHOD_CLENSHAW_CURTIS)
+            continue; /* it now searches for mass and finds this one (test_stability_cc.c) */
         run_out o = run_au("genz-gaussian", 2, a2, u2, rules[i], NULL);
         ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
         assert_true(o.rep.res.ci_high < truth); /* wrong: the flag is what saves it */
@@ -52,7 +54,10 @@ static void budget_2e6(qmc_integrate_spec *s) { s->max_evals = 2000000; }
 static void test_auto_finds_missed_peak(void **state)
 {
     (void)state;
-    const double a2[] = {400, 400}, u2[] = {0.123, 0.777};
+    /* The issue's 2D peak (a = 400) is now found by Clenshaw-Curtis's own
+     * search for mass (test_stability_cc.c); this one, a = 5000, is not
+     * resolved within its grid. */
+    const double a2[] = {5000, 5000}, u2[] = {0.123, 0.777};
     run_out o = run_au("genz-gaussian", 2, a2, u2, QMC_METHOD_AUTO, NULL);
     assert_int_equal(o.err, 0);
     assert_int_equal(o.rep.method_used, QMC_METHOD_RQMC);
