@@ -68,35 +68,48 @@ static uint32_t coarse_n(qmc_rule1d rule, uint32_t n)
 size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims)
 {
     /* fine and coarse nodes and weights (coarse n <= n), the chunk's points,
-     * values and weights, and the odometer */
-    size_t doubles = 4 * (size_t)n;
-    if (dims > (SIZE_MAX / sizeof(double) - doubles) / TENSOR_CHUNK - 2)
+     * values and weights, the marginals (n per axis) and their Legendre
+     * coefficients (n), the odometer and the chunk's node indices */
+    if (dims == 0 || n > (SIZE_MAX / sizeof(double) - 4) / ((size_t)dims + 5))
+        return 0;
+    size_t doubles = (5 + (size_t)dims) * (size_t)n;
+    if (dims > (SIZE_MAX / sizeof(double) - doubles) / (2 * TENSOR_CHUNK) - 2)
         return 0;
     doubles += (size_t)TENSOR_CHUNK * ((size_t)dims + 2);
-    if (doubles > (SIZE_MAX - (size_t)dims * sizeof(uint32_t)) / sizeof(double))
+    size_t words = (size_t)dims * (TENSOR_CHUNK + 1);
+    if (doubles > (SIZE_MAX - words * sizeof(uint32_t)) / sizeof(double))
         return 0;
-    return doubles * sizeof(double) + (size_t)dims * sizeof(uint32_t);
+    return doubles * sizeof(double) + words * sizeof(uint32_t);
 }
 
 typedef struct tensor_scratch {
     double *px;     /* TENSOR_CHUNK x dims points */
     double *pw;     /* TENSOR_CHUNK product weights */
     double *pf;     /* TENSOR_CHUNK values */
+    double *marg;   /* dims x n: sum of w f over the nodes with index k on axis j */
+    double *coef;   /* n: one marginal's Legendre coefficients */
+    double abs_sum; /* sum of |w f| over the marginals' nodes */
     uint32_t *idx;  /* the odometer, dims digits */
+    uint32_t *ridx; /* TENSOR_CHUNK x dims: each row's node indices */
 } tensor_scratch;
 
 /* The product rule with m nodes x[], w[] per axis; total = m^dims points,
  * into *out.  Adds the evaluations to *evals and the non-finite values to
- * *nonfinite.  Returns QMC_ECANCELED when the poll fires, else 0. */
+ * *nonfinite; with marg, sums each axis's marginal into t->marg (m a
+ * axis).  Returns QMC_ECANCELED when the poll fires, else 0. */
 static int tensor_sum(const qmc_integrand *f, const double *x,
                       const double *w, uint32_t m, uint64_t total,
-                      const tensor_scratch *t, qmc__poll *poll, double *out,
+                      tensor_scratch *t, int marg, qmc__poll *poll, double *out,
                       uint64_t *evals, uint64_t *nonfinite)
 {
     uint32_t d = f->dims;
     double sum = 0.0, comp = 0.0;
     for (uint32_t j = 0; j < d; j++)
         t->idx[j] = 0;
+    double abs_sum = 0.0;
+    if (marg)
+        for (size_t k = 0; k < (size_t)d * m; k++)
+            t->marg[k] = 0.0;
     uint64_t left = total;
     while (left > 0) {
         size_t c = left < TENSOR_CHUNK ? (size_t)left : TENSOR_CHUNK;
@@ -107,6 +120,7 @@ static int tensor_sum(const qmc_integrand *f, const double *x,
                 double xj = x[t->idx[j]];
                 row[j] = xj >= 1.0 ? TENSOR_ONE_MINUS : xj;
                 wp *= w[t->idx[j]];
+                t->ridx[i * d + j] = t->idx[j];
             }
             t->pw[i] = wp;
             /* advance the odometer, last axis fastest */
@@ -123,6 +137,9 @@ static int tensor_sum(const qmc_integrand *f, const double *x,
             double v = t->pw[i] * t->pf[i], s = sum + v;
             comp += fabs(sum) >= fabs(v) ? (sum - s) + v : (v - s) + sum;
             sum = s;
+            abs_sum += fabs(v);
+            for (uint32_t j = 0; marg && j < d; j++)
+                t->marg[(size_t)j * m + t->ridx[i * d + j]] += v;
         }
         *evals += c;
         left -= c;
@@ -130,6 +147,73 @@ static int tensor_sum(const qmc_integrand *f, const double *x,
             return QMC_ECANCELED;
     }
     *out = sum + comp;
+    if (marg)
+        t->abs_sum = abs_sum;
+    return 0;
+}
+
+/*
+ * Whether Gauss-Legendre's nodes resolve the integrand, seen in its
+ * marginals.  The bar |fine - coarse| with n and n/2 nodes an axis holds
+ * while the coarse rule is converging: its error then dominates, and the
+ * fine one is far smaller.  When neither resolves a feature the two
+ * errors are alike, and can agree by chance: a Gaussian of width 1/150 in
+ * 3D, 97 and 48 nodes an axis, gave 9.97e-7 +- 3.9e-8 against 1.65e-6
+ * (the stability run's peak-gauss-3d).  The fine rule's own values say
+ * which: along each axis j, the marginal g(x) (f integrated over the
+ * other axes by the rule) has Legendre coefficients
+ *     c_l = (2l + 1) sum_k m_k P_l(2 x_k - 1),   m_k = sum of w f over the
+ * nodes with index k on axis j, exact for l < n while g is a polynomial
+ * of degree < n.  A resolved g's coefficients have decayed well before
+ * l = n, and the coarse rule, exact to degree n - 1, is converging; when
+ * the top quarter [3n/4, n) still holds GL_TAIL_SHARE of the largest
+ * coefficient, the coefficients have not begun to decay (the peak above:
+ * 1.0), and the bar is flagged unresolved.  The top quarter, not the upper
+ * half: a resolved cosine of frequency near n/2 has its largest
+ * coefficients there (oscillatory d = 2 at 16 nodes, error 1e-12: 0.55 in
+ * the upper half).  0.9, not 0.5: on the testpack Genz families at 16
+ * nodes (bench/scans/smooth_flags.sh) 0.5 flagged 30 correct answers more
+ * and 0.9 7, each of them an answer whose error was as large as its bar
+ * (oscillatory d = 1: 0.2 against 0.16).  Coefficients below
+ * GL_TAIL_FLOOR n sum |w f| are rounding, whatever their ratio.  Not below
+ * GL_TAIL_MIN_N nodes an axis.  O(n^2 d) work beside n^d evaluations.
+ */
+#define GL_TAIL_SHARE 0.9
+#define GL_TAIL_FLOOR 1e-12
+enum { GL_TAIL_MIN_N = 8 };
+
+static int gl_marginal_unresolved(const double *x, uint32_t n, uint32_t d, const double *marg,
+                                  double *coef, double abs_sum)
+{
+    /* |c_l| <= (2l + 1) sum |w f|: rounding sits near 1e-16 n abs_sum */
+    const double floor_c = GL_TAIL_FLOOR * (double)n * abs_sum;
+    for (uint32_t j = 0; j < d; j++) {
+        const double *mj = marg + (size_t)j * n;
+        for (uint32_t l = 0; l < n; l++)
+            coef[l] = 0.0;
+        for (uint32_t k = 0; k < n; k++) {
+            /* P_0 .. P_(n-1) at the node by the three-term recurrence */
+            const double xi = 2.0 * x[k] - 1.0, mk = mj[k];
+            double p0 = 1.0, p1 = xi;
+            coef[0] += mk;
+            coef[1] += mk * xi; /* n >= GL_TAIL_MIN_N > 1 */
+            for (uint32_t l = 1; l + 1 < n; l++) {
+                double p2 = ((2.0 * l + 1.0) * xi * p1 - (double)l * p0) / (l + 1.0);
+                coef[l + 1] += mk * p2;
+                p0 = p1;
+                p1 = p2;
+            }
+        }
+        double head = 0.0, tail = 0.0;
+        for (uint32_t l = 0; l < n; l++) {
+            double c = fabs(coef[l]) * (2.0 * l + 1.0);
+            head = fmax(head, c);
+            if (4 * l >= 3 * n)
+                tail = fmax(tail, c);
+        }
+        if (tail > GL_TAIL_SHARE * head && tail > floor_c)
+            return 1;
+    }
     return 0;
 }
 
@@ -222,7 +306,10 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     t.px = wc + n;
     t.pw = t.px + (size_t)TENSOR_CHUNK * d;
     t.pf = t.pw + TENSOR_CHUNK;
-    t.idx = (uint32_t *)(t.pf + TENSOR_CHUNK);
+    t.marg = t.pf + TENSOR_CHUNK;
+    t.coef = t.marg + (size_t)d * n;
+    t.idx = (uint32_t *)(t.coef + n);
+    t.ridx = t.idx + d;
     qmc__poll poll;
     qmc__poll_init(&poll, interrupt);
     if (qmc__poll_now(&poll))
@@ -239,12 +326,15 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
 
     uint64_t evals = 0, nonfinite = 0;
     double est, err;
-    if (tensor_sum(f, xf, wf, n, fine, &t, &poll, &est, &evals, &nonfinite))
+    const int watch = rule == QMC_RULE1D_GAUSS_LEGENDRE && n >= GL_TAIL_MIN_N;
+    if (tensor_sum(f, xf, wf, n, fine, &t, watch, &poll, &est, &evals, &nonfinite))
         return cancelled(&m, res, evals);
     uint32_t flags = 0;
+    if (watch && !nonfinite && gl_marginal_unresolved(xf, n, d, t.marg, t.coef, t.abs_sum))
+        flags |= QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE;
     if (nc) {
         double low;
-        if (tensor_sum(f, xc, wc, nc, coarse, &t, &poll, &low, &evals, &nonfinite))
+        if (tensor_sum(f, xc, wc, nc, coarse, &t, 0, &poll, &low, &evals, &nonfinite))
             return cancelled(&m, res, evals);
         err = fabs(est - low);
     } else {
