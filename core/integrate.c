@@ -148,7 +148,7 @@ static int run_tensor(const qmc_integrate_spec *spec, qmc_rule1d rule, const qmc
         qmc__msg_u64(why, spec->max_evals);
         return QMC_EBUDGET;
     }
-    size_t bytes = qmc_quad_tensor_workspace_bytes(n, f->dims);
+    size_t bytes = qmc_quad_tensor_rule_workspace_bytes(rule, n, f->dims);
     void *ws = malloc(bytes ? bytes : 1);
     if (!ws) {
         qmc__msg_str(why, "out of memory for the tensor rule's workspace");

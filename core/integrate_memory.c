@@ -163,10 +163,13 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
     case QMC_METHOD_CLENSHAW_CURTIS:
         return qmc__cubature_bytes(spec, dims, 1);
     case QMC_METHOD_MIDPOINT:
+        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, dims);
     case QMC_METHOD_TRAPEZOID:
+        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_TRAPEZOID, n, dims);
     case QMC_METHOD_SIMPSON:
+        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_SIMPSON, n, dims);
     case QMC_METHOD_GAUSS_LEGENDRE:
-        return qmc_quad_tensor_workspace_bytes(n, dims);
+        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims);
     case QMC_METHOD_AUTO: {
         /* Whichever rule it may pick for these dims and budget (each
          * allocates exactly its workspace: cubature's regions and the

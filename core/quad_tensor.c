@@ -65,14 +65,21 @@ static uint32_t coarse_n(qmc_rule1d rule, uint32_t n)
     }
 }
 
-size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims)
+/* Whether the run keeps each axis's marginal for the Legendre-decay test
+ * (gl_marginal_unresolved, below): Gauss-Legendre with enough nodes. */
+static int watches_marginals(qmc_rule1d rule, uint32_t n);
+
+size_t qmc_quad_tensor_rule_workspace_bytes(qmc_rule1d rule, uint32_t n, uint32_t dims)
 {
     /* fine and coarse nodes and weights (coarse n <= n), the chunk's points,
-     * values and weights, the marginals (n per axis) and their Legendre
-     * coefficients (n), the odometer and the chunk's node indices */
+     * values and weights, the odometer and the chunk's node indices; and
+     * for Gauss-Legendre the marginals (n per axis) and their Legendre
+     * coefficients (n), which the other rules do not keep (a midpoint rule
+     * at 1.3M nodes an axis would hold 31 MB more for nothing) */
+    const size_t marg = watches_marginals(rule, n) ? (size_t)dims + 1 : 0;
     if (dims == 0 || n > (SIZE_MAX / sizeof(double) - 4) / ((size_t)dims + 5))
         return 0;
-    size_t doubles = (5 + (size_t)dims) * (size_t)n;
+    size_t doubles = (4 + marg) * (size_t)n;
     if (dims > (SIZE_MAX / sizeof(double) - doubles) / (2 * TENSOR_CHUNK) - 2)
         return 0;
     doubles += (size_t)TENSOR_CHUNK * ((size_t)dims + 2);
@@ -80,6 +87,11 @@ size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims)
     if (doubles > (SIZE_MAX - words * sizeof(uint32_t)) / sizeof(double))
         return 0;
     return doubles * sizeof(double) + words * sizeof(uint32_t);
+}
+
+size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims)
+{
+    return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims);
 }
 
 typedef struct tensor_scratch {
@@ -182,6 +194,11 @@ static int tensor_sum(const qmc_integrand *f, const double *x,
 #define GL_TAIL_FLOOR 1e-12
 enum { GL_TAIL_MIN_N = 8 };
 
+static int watches_marginals(qmc_rule1d rule, uint32_t n)
+{
+    return rule == QMC_RULE1D_GAUSS_LEGENDRE && n >= GL_TAIL_MIN_N;
+}
+
 static int gl_marginal_unresolved(const double *x, uint32_t n, uint32_t d, const double *marg,
                                   double *coef, double abs_sum)
 {
@@ -280,7 +297,7 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     int rc = qmc_rule1d_check(rule, n, why, why_bytes);
     if (rc < 0)
         return rc;
-    size_t need = qmc_quad_tensor_workspace_bytes(n, d);
+    size_t need = qmc_quad_tensor_rule_workspace_bytes(rule, n, d);
     if (need == 0 || workspace_bytes < need
         || (uintptr_t)workspace % _Alignof(double) != 0) {
         qmc__msg_set(&m, "tensor: the workspace must be aligned and hold ",
@@ -306,9 +323,10 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     t.px = wc + n;
     t.pw = t.px + (size_t)TENSOR_CHUNK * d;
     t.pf = t.pw + TENSOR_CHUNK;
+    const int watch = watches_marginals(rule, n);
     t.marg = t.pf + TENSOR_CHUNK;
-    t.coef = t.marg + (size_t)d * n;
-    t.idx = (uint32_t *)(t.coef + n);
+    t.coef = t.marg + (watch ? (size_t)d * n : 0);
+    t.idx = (uint32_t *)(t.coef + (watch ? n : 0));
     t.ridx = t.idx + d;
     qmc__poll poll;
     qmc__poll_init(&poll, interrupt);
@@ -326,7 +344,6 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
 
     uint64_t evals = 0, nonfinite = 0;
     double est, err;
-    const int watch = rule == QMC_RULE1D_GAUSS_LEGENDRE && n >= GL_TAIL_MIN_N;
     if (tensor_sum(f, xf, wf, n, fine, &t, watch, &poll, &est, &evals, &nonfinite))
         return cancelled(&m, res, evals);
     uint32_t flags = 0;

@@ -169,8 +169,13 @@ QMC_MUST_CHECK int qmc_quad_gk(const qmc_integrand *f,
  * |estimate| and QMC_FLAG_ERROR_UNRELIABLE is set.  res->n is n^dims.
  */
 
-/* Workspace bytes for n points per axis in dims dimensions (0 on
- * overflow). */
+/* Workspace bytes for rule with n points per axis in dims dimensions (0
+ * on overflow): Gauss-Legendre from 8 nodes an axis also keeps each axis's
+ * marginal, (dims + 1) n doubles, for its Legendre-decay test. */
+size_t qmc_quad_tensor_rule_workspace_bytes(qmc_rule1d rule, uint32_t n, uint32_t dims);
+
+/* The same for the rule that needs the most (Gauss-Legendre): enough for
+ * any rule. */
 size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims);
 
 /*

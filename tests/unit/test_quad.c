@@ -546,7 +546,9 @@ static qmc_result run_tensor_hook(int kind, double p, uint32_t dims, qmc_rule1d 
     probe_init(seen);
     fn_ctx c = {kind, p, seen};
     qmc_integrand f = make_fn(&c, dims);
-    size_t bytes = qmc_quad_tensor_workspace_bytes(n, dims);
+    /* Exactly the rule's own size, so that the sanitizer build catches a
+     * rule writing past it. */
+    size_t bytes = qmc_quad_tensor_rule_workspace_bytes(rule, n, dims);
     void *ws = malloc(bytes);
     assert_non_null(ws);
     qmc_result res;
@@ -565,6 +567,34 @@ static qmc_result run_tensor(int kind, double p, uint32_t dims, qmc_rule1d rule,
 {
     return run_tensor_hook(kind, p, dims, rule, n, max_evals, rc, seen, why, why_bytes, NULL,
                            0);
+}
+
+/* Only Gauss-Legendre from 8 nodes an axis keeps the marginals for its
+ * Legendre-decay test, (dims + 1) n doubles; the other rules run in the
+ * smaller workspace and refuse one byte less. */
+static void test_tensor_workspace_per_rule(void **state)
+{
+    (void)state;
+    const uint32_t n = 1024, d = 2;
+    size_t gl = qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, d);
+    size_t mid = qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, d);
+    assert_int_equal(gl - mid, (d + 1) * n * sizeof(double));
+    assert_int_equal(qmc_quad_tensor_workspace_bytes(n, d), gl);
+    assert_int_equal(qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, 4, d),
+                     qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, 4, d));
+    probe seen;
+    probe_init(&seen);
+    fn_ctx c = {F_POW, 2.0, &seen};
+    qmc_integrand f = make_fn(&c, d);
+    void *ws = malloc(mid);
+    assert_non_null(ws);
+    qmc_result res;
+    char why[160];
+    assert_int_equal(qmc_quad_tensor(&f, QMC_RULE1D_MIDPOINT, 64, UINT64_MAX, NULL, ws, mid,
+                                     &res, why, sizeof why), 0);
+    assert_int_equal(qmc_quad_tensor(&f, QMC_RULE1D_MIDPOINT, n, UINT64_MAX, NULL, ws, mid - 1,
+                                     &res, why, sizeof why), QMC_EINVAL);
+    free(ws);
 }
 
 static void test_tensor_accuracy(void **state)
@@ -758,6 +788,7 @@ int main(void)
         cmocka_unit_test(test_gk_step),
         cmocka_unit_test(test_gk_roundoff),
         cmocka_unit_test(test_gk_budget_and_errors),
+        cmocka_unit_test(test_tensor_workspace_per_rule),
         cmocka_unit_test(test_tensor_accuracy),
         cmocka_unit_test(test_tensor_budget),
         cmocka_unit_test(test_gk_interrupt),
