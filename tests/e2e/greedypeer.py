@@ -705,7 +705,15 @@ def sc_jobmem(tcp_addr, unix_addr, pid, total_mb, job_mb, slack_mb):
             if r == crid:
                 cancelled = d
                 break
+    # The pool starts the first `fit` jobs on its worker threads, which a
+    # loaded machine may not have scheduled yet: wait for that state (by
+    # polls, not by a clock) before judging it.
     still = [state_of(p, jid) for p, jid, _ in jobs]
+    for _ in range(500):
+        if still.count("running") >= fit or any(v not in ("queued", "running") for v in still):
+            break
+        time.sleep(0.01)
+        still = [state_of(p, jid) for p, jid, _ in jobs]
     # (Before any running one ended: the first `fit` still run, the rest
     # still wait.)
     check("a queued hungry job cancelled is answered ECANCELED while the first %d still "
