@@ -15,18 +15,23 @@
 
 #include "stability_cases.h"
 
-run_out run(const char *name, uint32_t dims, qmc_method method,
-            void (*tweak)(qmc_integrate_spec *))
+/* One qmc_integrate call on the test function; audit: the audit's budget
+ * and seed before tweak. */
+static run_out run_case(const char *name, uint32_t dims, const double *a, const double *u,
+                        qmc_method method, int audit, void (*tweak)(qmc_integrate_spec *))
 {
     qmc_testfn *fn = NULL;
     char why[256];
-    if (qmc_testfn_new(name, dims, NULL, 0, NULL, 0, &fn, why, sizeof why) != 0)
+    if (qmc_testfn_new(name, dims, a, a ? dims : 0, u, u ? dims : 0, &fn, why, sizeof why) != 0)
         fail_msg("%s", why);
     qmc_integrate_spec s;
     qmc_integrate_spec_init(&s);
     s.method = method;
-    if (method == QMC_METHOD_RQMC) {
+    if (method == QMC_METHOD_RQMC)
         qmc_sampling_spec_init(&s.sampling, QMC_SAMPLER_RQMC);
+    if (audit) {
+        s.max_evals = 20000000;
+        s.sampling.seed = 12345;
     }
     if (tweak)
         tweak(&s);
@@ -38,28 +43,16 @@ run_out run(const char *name, uint32_t dims, qmc_method method,
     return o;
 }
 
+run_out run(const char *name, uint32_t dims, qmc_method method,
+            void (*tweak)(qmc_integrate_spec *))
+{
+    return run_case(name, dims, NULL, NULL, method, 0, tweak);
+}
+
 run_out run_au(const char *name, uint32_t dims, const double *a, const double *u,
                qmc_method method, void (*tweak)(qmc_integrate_spec *))
 {
-    qmc_testfn *fn = NULL;
-    char why[256];
-    if (qmc_testfn_new(name, dims, a, a ? dims : 0, u, u ? dims : 0, &fn, why, sizeof why) != 0)
-        fail_msg("%s", why);
-    qmc_integrate_spec s;
-    qmc_integrate_spec_init(&s);
-    s.method = method;
-    if (method == QMC_METHOD_RQMC)
-        qmc_sampling_spec_init(&s.sampling, QMC_SAMPLER_RQMC);
-    s.max_evals = 20000000;
-    s.sampling.seed = 12345;
-    if (tweak)
-        tweak(&s);
-    run_out o;
-    memset(&o, 0, sizeof o);
-    o.err = qmc_integrate(&s, qmc_testfn_integrand(fn), NULL, NULL, NULL, &o.rep, o.why,
-                          sizeof o.why);
-    qmc_testfn_free(fn);
-    return o;
+    return run_case(name, dims, a, u, method, 1, tweak);
 }
 
 double gaussian_truth(uint32_t d, const double *a, const double *u)
