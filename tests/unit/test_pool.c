@@ -287,21 +287,32 @@ static void test_no_starvation(void **state)
     qmcd_pool_free(pool, 0);
 }
 
+/* The strict-order scene, with job-memory-overtakes 0 and 100 of memory:
+ * tenant 1's hold (60) runs, tenant 2's big job (80) waits for memory,
+ * and tenant 3's small one (10) is queued behind it. */
+static void hold_big_small(qmcd_pool *pool, qmcd_pool_tenant *t[3], fake *hold, fake *big,
+                           fake *small)
+{
+    for (uint32_t i = 0; i < 3; i++)
+        t[i] = tenant(pool, i + 1);
+    fake_init(hold, 1, 60);
+    fake_init(big, 2, 80);
+    fake_init(small, 3, 10);
+    qmcd_pool_submit(pool, t[0], &hold->task);
+    wait_started(hold);
+    qmcd_pool_submit(pool, t[1], &big->task);
+    wait_waiting(pool);
+    qmcd_pool_submit(pool, t[2], &small->task);
+}
+
 /* job-memory-overtakes 0: strict turns, nothing passes a waiting job. */
 static void test_strict(void **state)
 {
     (void)state;
     qmcd_pool *pool = new_pool(100, 0);
-    qmcd_pool_tenant *ta = tenant(pool, 1), *tb = tenant(pool, 2), *tc = tenant(pool, 3);
+    qmcd_pool_tenant *t[3];
     fake hold, big, small;
-    fake_init(&hold, 1, 60);
-    fake_init(&big, 2, 80);
-    fake_init(&small, 3, 10);
-    qmcd_pool_submit(pool, ta, &hold.task);
-    wait_started(&hold);
-    qmcd_pool_submit(pool, tb, &big.task);
-    wait_waiting(pool);
-    qmcd_pool_submit(pool, tc, &small.task);
+    hold_big_small(pool, t, &hold, &big, &small);
     finish(pool, &hold);
     wait_started(&big);
     wait_started(&small);
@@ -309,9 +320,8 @@ static void test_strict(void **state)
     assert_int_equal(counts(pool).memory_backfills, 0);
     finish(pool, &big);
     finish(pool, &small);
-    qmcd_pool_tenant_release(pool, ta);
-    qmcd_pool_tenant_release(pool, tb);
-    qmcd_pool_tenant_release(pool, tc);
+    for (int i = 0; i < 3; i++)
+        qmcd_pool_tenant_release(pool, t[i]);
     qmcd_pool_free(pool, 0);
 }
 
@@ -321,16 +331,9 @@ static void test_cancelled_waiter(void **state)
 {
     (void)state;
     qmcd_pool *pool = new_pool(100, 0);
-    qmcd_pool_tenant *ta = tenant(pool, 1), *tb = tenant(pool, 2), *tc = tenant(pool, 3);
-    fake hold, big, small;
-    fake_init(&hold, 1, 60);
-    fake_init(&big, 2, 80);
-    fake_init(&small, 3, 10);
-    qmcd_pool_submit(pool, ta, &hold.task);
-    wait_started(&hold);
-    qmcd_pool_submit(pool, tb, &big.task);
-    wait_waiting(pool);
-    qmcd_pool_submit(pool, tc, &small.task); /* strict: held behind the big one */
+    qmcd_pool_tenant *t[3];
+    fake hold, big, small; /* strict: small is held behind the big one */
+    hold_big_small(pool, t, &hold, &big, &small);
     pthread_mutex_lock(&mu);
     atomic_store(&big.cancelled, 1);
     pthread_cond_broadcast(&cv);
@@ -343,9 +346,8 @@ static void test_cancelled_waiter(void **state)
     finish(pool, &small);
     finish(pool, &hold);
     assert_int_equal(counts(pool).memory_reserved, 0);
-    qmcd_pool_tenant_release(pool, ta);
-    qmcd_pool_tenant_release(pool, tb);
-    qmcd_pool_tenant_release(pool, tc);
+    for (int i = 0; i < 3; i++)
+        qmcd_pool_tenant_release(pool, t[i]);
     qmcd_pool_free(pool, 0);
 }
 
