@@ -539,11 +539,16 @@ static size_t drop_nonfinite(double *fv, double *gv, size_t m)
     return kept;
 }
 
-int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
-                           size_t workspace_bytes, qmc_sampling_sums *out)
+/* Block `block`: its points in index order, chunk by chunk, evaluated and
+ * (out not NULL) summed into *out; with out NULL only evaluated, which
+ * calls the integrands exactly as the summing pass does. */
+static int block_pass(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                      size_t workspace_bytes, qmc_sampling_sums *out)
 {
-    memset(out, 0, sizeof *out);
-    out->block = block;
+    if (out) {
+        memset(out, 0, sizeof *out);
+        out->block = block;
+    }
     if (block >= qmc_sampling_blocks(job))
         return QMC_ERANGE;
     if (workspace_bytes < qmc_sampling_workspace_bytes(job))
@@ -570,7 +575,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
             for (size_t k = 0; k < m; k++)
                 gv[k] -= job->g->exact;
         }
-        if (add_chunk(out, &acc, fv, gv, m, 0))
+        if (!out || add_chunk(out, &acc, fv, gv, m, 0))
             continue;
         size_t kept = drop_nonfinite(fv, gv, m);
         out->count += m - kept;
@@ -578,11 +583,25 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
         if (kept > 0)
             add_chunk(out, &acc, fv, gv, kept, 1);
     }
+    if (!out)
+        return 0;
     qmc__lane_fold(&acc.f, out->f);
     qmc__lane_fold(&acc.absf, out->absf);
     qmc__lane_fold(&acc.g, out->g);
     pool_to_top(&acc.top, out->top);
     return 0;
+}
+
+int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                           size_t workspace_bytes, qmc_sampling_sums *out)
+{
+    return block_pass(job, block, workspace, workspace_bytes, out);
+}
+
+int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                             size_t workspace_bytes)
+{
+    return block_pass(job, block, workspace, workspace_bytes, NULL);
 }
 
 const char *qmc_sampler_name(qmc_sampler s)

@@ -26,6 +26,13 @@ size_t qmc__sampling_workspace_bytes_for(uint32_t dims);
  * of a replicate holds what is left of n). */
 uint64_t qmc__sampling_block_points(const qmc_sampling_job *job, uint64_t block);
 
+/* Calls the integrands on block `block`'s points exactly as
+ * qmc_sampling_run_block does - same chunks, same order - but sums
+ * nothing: a session's collect pass (session_run.c), which only needs the
+ * points.  Errors as qmc_sampling_run_block. */
+int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                             size_t workspace_bytes);
+
 /*
  * The estimate from the first `done` blocks of a job still running
  * (sums[i].block == i): the job's own estimator on the work complete so

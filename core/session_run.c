@@ -14,8 +14,8 @@
  * block runner (qmc_block_runner, as the daemon's and the CLI's thread
  * pools are) and runs each group of whole blocks twice: first with the
  * integrand copying the points into the batch and answering 0
- * (MODE_COLLECT) - the block's sums are thrown away -, then, once the
- * caller has answered the whole batch, with the integrand answering from
+ * (MODE_COLLECT), summing nothing, then, once the caller has answered
+ * the whole batch, with the integrand answering from
  * the values in order (MODE_REPLAY).  A block's points and the order of its
  * integrand calls depend only on the job and the block (never on the
  * values: sampling.c evaluates every point of a block in a fixed order), so
@@ -97,12 +97,14 @@ static int session_interrupt(void *ctx)
     return s->closing || (own->fn && own->fn(own->ctx));
 }
 
-/* Runs blocks [first, first + count) of job into out, one pass. */
+/* Runs blocks [first, first + count) of job into out (NULL: evaluate
+ * only, the collect pass), one pass. */
 static int run_pass(qmc_session *s, const qmc_sampling_job *job, uint64_t first, uint64_t count,
                     qmc_sampling_sums *out)
 {
     for (uint64_t b = 0; b < count; b++) {
-        int err = qmc_sampling_run_block(job, first + b, s->ws, s->ws_bytes, &out[b]);
+        int err = out ? qmc_sampling_run_block(job, first + b, s->ws, s->ws_bytes, &out[b])
+                      : qmc__sampling_eval_block(job, first + b, s->ws, s->ws_bytes);
         if (err)
             return err;
     }
@@ -141,7 +143,7 @@ static int session_runner(void *ctx, const qmc_sampling_job *job, uint64_t first
         } else {
             s->mode = MODE_COLLECT;
             s->fill = 0;
-            err = run_pass(s, job, first + i, j - i, out + i);
+            err = run_pass(s, job, first + i, j - i, NULL);
             s->mode = MODE_DIRECT;
             if (!err && s->fill != points)
                 s->overrun = 1;
