@@ -316,10 +316,11 @@ deps-demo:
 
 # ---- install -----------------------------------------------------------------
 # Everything an operator needs (docs/OPERATIONS.md): the programs, the
-# libraries (static, and shared with its soname and symlinks), headers and
-# qmcclient.pc, man pages, the systemd units with this PREFIX's paths, the
-# sysusers.d/tmpfiles.d snippets for the user qmcd, the client group qmc
-# and /run/qmcd, the example config (never overwritten), bash completion.
+# libraries (static, and shared with its soname and symlinks), headers,
+# qmcclient.pc and qmc.pc, man pages, the systemd units with this PREFIX's
+# paths, the sysusers.d/tmpfiles.d snippets for the user qmcd, the client
+# group qmc and /run/qmcd, the example config (never overwritten), bash
+# completion.
 # `make uninstall` removes the same files; a config that differs from the
 # shipped example is left in place (and said so).
 SYSCONFDIR  ?= /etc
@@ -351,6 +352,7 @@ install: all
 	ln -sf libqmcclient.so.$(SO_VERSION) $(D)$(LIBDIR)/$(SO_NAME)
 	ln -sf $(SO_NAME) $(D)$(LIBDIR)/libqmcclient.so
 	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmcclient.pc.in > $(D)$(LIBDIR)/pkgconfig/qmcclient.pc
+	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmc.pc.in > $(D)$(LIBDIR)/pkgconfig/qmc.pc
 	install -m 0644 include/qmc/*.h $(D)$(INCLUDEDIR)/qmc/
 	install -m 0644 man/qmc.1 $(D)$(MANDIR)/man1/
 	install -m 0644 man/qmcd.conf.5 $(D)$(MANDIR)/man5/
@@ -371,7 +373,7 @@ install: all
 uninstall:
 	rm -f $(D)$(BINDIR)/qmc $(D)$(SBINDIR)/qmcd
 	rm -f $(addprefix $(D)$(LIBDIR)/,$(notdir $(ALL_LIBS)) libqmcclient.so \
-	  $(SO_NAME) libqmcclient.so.$(SO_VERSION) pkgconfig/qmcclient.pc)
+	  $(SO_NAME) libqmcclient.so.$(SO_VERSION) pkgconfig/qmcclient.pc pkgconfig/qmc.pc)
 	rm -f $(addprefix $(D)$(INCLUDEDIR)/qmc/,$(notdir $(wildcard include/qmc/*.h)))
 	rm -f $(D)$(MANDIR)/man1/qmc.1 $(D)$(MANDIR)/man5/qmcd.conf.5 $(D)$(MANDIR)/man8/qmcd.8
 	rm -f $(addprefix $(D)$(DOCDIR)/,$(notdir $(INSTALL_DOCS)) qmcd-modbus-rtu.conf \
