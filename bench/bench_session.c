@@ -227,7 +227,7 @@ int main(void)
         {"auto (rqmc over a map), 8 dims", QMC_METHOD_AUTO, 8, QMC_SMOOTH_DISCONTINUOUS, 1e-5,
          2000000, 0},
         {"auto (clenshaw-curtis)", QMC_METHOD_AUTO, DIMS, QMC_SMOOTH_ANALYTIC, 1e-12, 2000000, 0},
-        {"cubature, tol 1e-9", QMC_METHOD_CUBATURE, 3, QMC_SMOOTH_ANALYTIC, 1e-9, 2000000, 0},
+        {"cubature, tol 1e-13", QMC_METHOD_CUBATURE, 3, QMC_SMOOTH_ANALYTIC, 1e-13, 2000000, 0},
         {"gauss-legendre 32^4", QMC_METHOD_GAUSS_LEGENDRE, DIMS, QMC_SMOOTH_ANALYTIC, 0, 0, 0},
         {"gauss-kronrod, tol 1e-13", QMC_METHOD_GAUSS_KRONROD, 1, QMC_SMOOTH_ANALYTIC, 1e-13, 0,
          0},

@@ -252,6 +252,8 @@ void qmc_session_free(qmc_session *s)
     free(s);
 }
 
+static qmc_session_end end_of(const qmc_session *s);
+
 int qmc_session_ask(qmc_session *s, qmc_session_batch *batch)
 {
     if (!batch)
@@ -260,8 +262,10 @@ int qmc_session_ask(qmc_session *s, qmc_session_batch *batch)
     if (!s)
         return QMC_EINVAL;
     batch->dims = s->spec.dims;
-    if (!s->pending)
-        return 0; /* done */
+    if (!s->pending) {
+        batch->end = end_of(s); /* done */
+        return 0;
+    }
     s->served = 1;
     batch->seq = s->seq;
     batch->points = s->points;

@@ -105,34 +105,6 @@ QMC_MUST_CHECK int qmc_session_new(const qmc_session_spec *spec, qmc_session **o
  * no-op.  Batch pointers from ask die with it. */
 void qmc_session_free(qmc_session *s);
 
-typedef struct qmc_session_batch {
-    uint64_t seq;           /* the batch's number: 0, 1, 2, ... */
-    const double *points;   /* count x dims coordinates in [0,1), row-major;
-                               the session's, valid until the next tell or free */
-    size_t count;           /* 0: the session is done (qmc_session_result) */
-    uint32_t dims;
-} qmc_session_batch;
-
-/*
- * The batch the session waits for, or count 0 when it is done.  Asking
- * again before telling returns the same batch (a retry never loses work).
- * Returns 0, or QMC_EINVAL for NULL arguments.
- */
-QMC_MUST_CHECK int qmc_session_ask(qmc_session *s, qmc_session_batch *batch);
-
-/*
- * f at the points of batch seq, in order: values[0 .. count).  The values
- * are copied; NaN and infinities are taken as they are, counted, and
- * flagged by the integrator as for any integrand (QMC_FLAG_NONFINITE).
- * The integrator then runs on to its next batch (or to its end) before
- * tell returns.  Errors, with a reason, leaving the session as it was (the
- * same batch is still waiting): QMC_EINVAL for a batch not handed out by
- * ask (no ask yet, an old seq, a future one), a count that is not the
- * batch's, values NULL, or a session that is done.
- */
-QMC_MUST_CHECK int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values,
-                                    size_t count, char *why, size_t why_bytes);
-
 /* Why a session ended.  X(enum suffix, key, meaning). */
 #define QMC_SESSION_END_MAP(X)                                                         \
     X(RUNNING, "running", "points are still wanted")                                   \
@@ -152,6 +124,35 @@ typedef enum qmc_session_end {
 
 const char *qmc_session_end_key(qmc_session_end e);  /* "converged"; "" for others */
 const char *qmc_session_end_text(qmc_session_end e);
+
+typedef struct qmc_session_batch {
+    uint64_t seq;           /* the batch's number: 0, 1, 2, ... */
+    const double *points;   /* count x dims coordinates in [0,1), row-major;
+                               the session's, valid until the next tell or free */
+    size_t count;           /* 0: the session is done (qmc_session_result) */
+    uint32_t dims;
+    qmc_session_end end;    /* RUNNING while count > 0; then why it ended */
+} qmc_session_batch;
+
+/*
+ * The batch the session waits for, or count 0 when it is done (end says
+ * why).  Asking again before telling returns the same batch (a retry never
+ * loses work).  Returns 0, or QMC_EINVAL for NULL arguments.
+ */
+QMC_MUST_CHECK int qmc_session_ask(qmc_session *s, qmc_session_batch *batch);
+
+/*
+ * f at the points of batch seq, in order: values[0 .. count).  The values
+ * are copied; NaN and infinities are taken as they are, counted, and
+ * flagged by the integrator as for any integrand (QMC_FLAG_NONFINITE).
+ * The integrator then runs on to its next batch (or to its end) before
+ * tell returns.  Errors, with a reason, leaving the session as it was (the
+ * same batch is still waiting): QMC_EINVAL for a batch not handed out by
+ * ask (no ask yet, an old seq, a future one), a count that is not the
+ * batch's, values NULL, or a session that is done.
+ */
+QMC_MUST_CHECK int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values,
+                                    size_t count, char *why, size_t why_bytes);
 
 typedef struct qmc_session_report {
     qmc_session_end end;    /* QMC_SESSION_RUNNING until done */
@@ -202,12 +203,12 @@ QMC_MUST_CHECK int qmc_session_part(const qmc_session *s, qmc_session_part_sums 
 
 /*
  * An upper bound on the bytes a session opened with spec holds at any
- * time: the session and its fiber stack (QMC__FIBER_STACK_BYTES, 128 KiB
- * in a plain build), the batch buffer (max_batch x (dims + 1) doubles,
- * sampling methods and auto), the block workspace, a part's sums, and
- * qmc_integrate_memory_bytes_for the integrator's own.  Leaves out what
- * that bound leaves out (a few sequence instances).  Saturates at
- * UINT64_MAX.  A server reserves it before opening.
+ * time: the session and the stack its integrator runs on (128 KiB; 512
+ * KiB in a sanitized build), the batch buffer (max_batch x (dims + 1)
+ * doubles, sampling methods and auto), one block's workspace, a part's
+ * sums, and qmc_integrate_memory_bytes_for for the integrator's own.
+ * Leaves out what that bound leaves out (a few sequence instances).
+ * Saturates at UINT64_MAX.  A server reserves it before opening.
  */
 uint64_t qmc_session_memory_bytes(const qmc_session_spec *spec);
 

@@ -109,8 +109,11 @@ static void drive(qmc_session *s, const qmc_integrand *f, outcome *o)
     for (;;) {
         qmc_session_batch b;
         assert_int_equal(qmc_session_ask(s, &b), 0);
-        if (b.count == 0)
+        if (b.count == 0) {
+            assert_int_not_equal(b.end, QMC_SESSION_RUNNING);
             break;
+        }
+        assert_int_equal(b.end, QMC_SESSION_RUNNING);
         if (o->batches == 0)
             seq0 = b.seq;
         assert_int_equal(b.seq, seq0 + o->batches); /* numbered in order */
@@ -131,6 +134,9 @@ static void drive(qmc_session *s, const qmc_integrand *f, outcome *o)
     free(vals);
     o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
     qmc_session_status(s, &o->status);
+    qmc_session_batch done;
+    assert_int_equal(qmc_session_ask(s, &done), 0);
+    assert_int_equal(done.end, o->status.end);
 }
 
 static outcome via_session(const qmc_session_spec *ss, const qmc_integrand *f)
