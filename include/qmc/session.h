@@ -92,10 +92,14 @@ typedef struct qmc_session qmc_session;
 /*
  * Opens a session and runs the integrator up to its first batch, so that a
  * request qmc_integrate would refuse is refused here, with its reason.
- * Errors: QMC_EINVAL (the spec: dims, smoothness, name, part, a control
- * variate, max_batch; or as qmc_integrate), QMC_EDIMS, QMC_ECOUNT,
- * QMC_ESCRAMBLE, QMC_EBUDGET, QMC_ETOOBIG, QMC_ENOMEM (as qmc_integrate).
- * The spec is copied; *out is the caller's to free (NULL on failure).
+ * Errors, with a one-line reason: QMC_EINVAL (dims 0, smoothness, name
+ * without its terminator, has_exact, part not k/p or not of a fixed-n
+ * sampling job; or as qmc_integrate), QMC_EDIMS (dims past
+ * QMC_SESSION_MAX_DIMS, or as qmc_integrate), QMC_ECOUNT, QMC_ESCRAMBLE,
+ * QMC_EBUDGET, QMC_ETOOBIG (as qmc_integrate), QMC_ENOMEM (also a
+ * max_batch too large to allocate).  There is no control variate: the
+ * session's integrand is the caller's only.  The spec is copied; *out is
+ * the caller's to free (NULL on failure).
  */
 QMC_MUST_CHECK int qmc_session_new(const qmc_session_spec *spec, qmc_session **out,
                                    char *why, size_t why_bytes);
