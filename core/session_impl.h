@@ -49,6 +49,8 @@ struct qmc_session {
     uint64_t batches, evals, nonfinite;
     int has_estimate;
     qmc_result running;
+    const qmc_sampling_job *run_job; /* the job running was last taken from */
+    uint64_t run_key, run_done;      /* its n, and the blocks it rested on */
     int err;                      /* the integrator's return value */
     qmc_integrate_report rep;
     char why[512];

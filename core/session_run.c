@@ -112,6 +112,35 @@ static int run_pass(qmc_session *s, const qmc_sampling_job *job, uint64_t first,
 }
 
 /*
+ * The running estimate from blocks [0, done) of job.  Finishing costs a
+ * pass over every block done, so it is taken again only once the blocks
+ * have grown by an eighth since the last time (or by one, early on):
+ * the passes add up to at most 9 times the job's blocks, where one per
+ * batch would be quadratic (2^20 blocks in batches of 16: 3e10 block
+ * merges), and the estimate is never more than an eighth of the work
+ * behind.  Its n says how many points a replicate it rests on.
+ */
+static void update_running(qmc_session *s, const qmc_sampling_job *job,
+                           const qmc_sampling_sums *sums, uint64_t done)
+{
+    const uint64_t n = job->spec.n; /* an adaptive round's n names it */
+    if (job != s->run_job || n != s->run_key || done < s->run_done) {
+        s->run_job = job; /* a new job: an adaptive round, auto's rqmc */
+        s->run_key = n;
+        s->run_done = 0;
+    }
+    const uint64_t step = s->run_done / 8 ? s->run_done / 8 : 1;
+    if (done != qmc_sampling_blocks(job) && done - s->run_done < step)
+        return;
+    s->run_done = done;
+    qmc_result r;
+    if (qmc__sampling_running(job, sums, done, &r)) {
+        s->running = r;
+        s->has_estimate = 1;
+    }
+}
+
+/*
  * The block runner: groups of whole blocks of at most max_batch points,
  * each collected, handed to the caller as one batch and replayed.  A block
  * larger than max_batch runs in MODE_DIRECT (the engine's chunks are the
@@ -164,11 +193,8 @@ static int session_runner(void *ctx, const qmc_sampling_job *job, uint64_t first
         if (err)
             return err;
         i = j;
-        qmc_result r;
-        if (!s->spec.part_p && qmc__sampling_running(job, out - first, first + i, &r)) {
-            s->running = r;
-            s->has_estimate = 1;
-        }
+        if (!s->spec.part_p)
+            update_running(s, job, out - first, first + i);
     }
     return 0;
 }

@@ -234,6 +234,51 @@ static void test_running_estimate(void **state)
     qmc_testfn_free(p.fn);
 }
 
+/* The running estimate is taken again only once the work has grown by an
+ * eighth (so the passes over the blocks stay linear in the job): it is
+ * never more than an eighth behind the values told, and at the end it is
+ * the result. */
+static void test_running_lag(void **state)
+{
+    (void)state;
+    problem p = session_test_make("genz-gaussian", 2, NULL, NULL);
+    qmc_integrate_spec is;
+    qmc_integrate_spec_init(&is);
+    is.method = QMC_METHOD_MC;
+    is.sampling.n = 200 * QMC_SAMPLING_BLOCK;
+    is.n_given = 1;
+    qmc_session_spec ss;
+    session_test_spec(&ss, &is, p.f);
+    ss.max_batch = QMC_SAMPLING_BLOCK;
+    qmc_session *s = NULL;
+    char why[256];
+    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    static double vals[QMC_SAMPLING_BLOCK];
+    uint64_t last_n = 0, updates = 0;
+    for (;;) {
+        qmc_session_batch b;
+        assert_int_equal(qmc_session_ask(s, &b), 0);
+        if (b.count == 0)
+            break;
+        p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
+        assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
+        qmc_session_report r;
+        qmc_session_status(s, &r);
+        assert_int_equal(r.has_estimate, 1); /* mc: from the first block on */
+        assert_true(9 * r.running.n >= 8 * r.evals);
+        updates += r.running.n != last_n;
+        last_n = r.running.n;
+    }
+    assert_true(updates < 60); /* about 8 + ln(200/8)/ln(9/8) = 36, not 200 */
+    outcome o;
+    memset(&o, 0, sizeof o);
+    session_test_drive(s, p.f, &o);
+    assert_true(test_same_result(&o.status.running, &o.rep.res));
+    assert_int_equal(o.rep.res.n, is.sampling.n);
+    qmc_session_free(s);
+    qmc_testfn_free(p.fn);
+}
+
 /* A rule has no estimate before its end; its report still counts values
  * and raises nonfinite at once. */
 static void test_running_rule(void **state)
@@ -430,6 +475,7 @@ int main(void)
         cmocka_unit_test(test_every_method_bit_for_bit),
         cmocka_unit_test(test_batch_sizes),
         cmocka_unit_test(test_running_estimate),
+        cmocka_unit_test(test_running_lag),
         cmocka_unit_test(test_running_rule),
         cmocka_unit_test(test_stack_depth),
         cmocka_unit_test(test_parts),
