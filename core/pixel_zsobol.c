@@ -145,7 +145,7 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
 /*
  * The fast fill's sample part: the permuted low L bits of the index for
  * samples a .. a + n - 1 of one pixel and pair (L <= 32, n <= the staging
- * rows), written to dst[r * stride] (and dst[r * stride + 1] when both).
+ * rows), written to dst[r * stride].
  * The sample's digits form a tree: a digit's permutation depends only on
  * the digits above it, so each tree level is hashed once per node, the
  * nodes of a level at once (qmc__pixel_nodes) - 1 + 4 + 16 + ... hashes
@@ -154,16 +154,13 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
  * v[j][m] holds the permuted bits above level j of level j's node m.
  */
 static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint64_t a,
-                        uint32_t n, uint32_t *dst, uint32_t stride, int both)
+                        uint32_t n, uint32_t *dst, uint32_t stride)
 {
     const zsobol_tables *z = p->tables;
     const uint32_t L = z->log2_spp, odd = L & 1u, nl = (L + odd) / 2;
     if (nl == 0) {
-        for (uint32_t r = 0; r < n; r++, dst += stride) {
+        for (uint32_t r = 0; r < n; r++, dst += stride)
             dst[0] = 0;
-            if (both)
-                dst[1] = 0;
-        }
         return;
     }
     /* Node m of level j spans samples [m 2^top, (m + 1) 2^top); its hash
@@ -205,16 +202,12 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         for (; i < end; i++, dst += stride) {
             const uint32_t m = (uint32_t)(i >> 1) - first[0];
             dst[0] = v0[m] | ((uint32_t)(i & 1u) ^ p0[m]);
-            if (both)
-                dst[1] = dst[0];
         }
         return;
     }
     for (; i < end && (i & 3u); i++, dst += stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0];
         dst[0] = v0[m] | perm4[p0[m]][i & 3u];
-        if (both)
-            dst[1] = dst[0];
     }
     for (; end - i >= 4; i += 4, dst += 4 * stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0], up = v0[m];
@@ -223,18 +216,10 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         dst[stride] = up | row[1];
         dst[2 * stride] = up | row[2];
         dst[3 * stride] = up | row[3];
-        if (both) {
-            dst[1] = dst[0];
-            dst[stride + 1] = dst[stride];
-            dst[2 * stride + 1] = dst[2 * stride];
-            dst[3 * stride + 1] = dst[3 * stride];
-        }
     }
     for (; i < end; i++, dst += stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0];
         dst[0] = v0[m] | perm4[p0[m]][i & 3u];
-        if (both)
-            dst[1] = dst[0];
     }
 }
 
@@ -278,7 +263,7 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
             mode[2 * k] = QMC__PIXEL_OWEN;
             mode[2 * k + 1] = QMC__PIXEL_OWEN_DIM1;
         }
-        qmc__pixel_pattern_init(&pt, nc, mode);
+        qmc__pixel_pattern_init(&pt, nc, mode, 1);
         qmc__pixel_pattern_set(&pt, NULL, seed, NULL);
         uint64_t pixel = 0;
         for (uint32_t y = t->y; y < t->y + t->height; y++)
@@ -295,8 +280,7 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
                     const uint32_t n =
                         t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
                     for (uint32_t k = 0; k < np; k++)
-                        sample_part(p, mpix, salt[k], t->sample_start + a, n, in + 2 * k, nc,
-                                    2 * k + 1 < nc);
+                        sample_part(p, mpix, salt[k], t->sample_start + a, n, in + k, np);
                     char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
                     qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }
