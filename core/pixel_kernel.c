@@ -82,6 +82,19 @@ void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc, const 
 
 /* ---- dispatch ---------------------------------------------------------------- */
 
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+#if defined(__clang__)
+    /* clang has no variable-index vector shuffle builtin. */
+    pk_u r;
+    for (int l = 0; l < PK_VW; l++)
+        r[l] = x[idx[l] & (PK_VW - 1)];
+    return r;
+#else
+    return __builtin_shuffle(x, idx);
+#endif
+}
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PIXEL_KERNEL_X86 1
 void qmc__pixel_emit_avx2(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,

@@ -30,9 +30,11 @@ typedef int32_t pk_i __attribute__((vector_size(PK_VW * 4)));
 typedef float pk_f __attribute__((vector_size(PK_VW * 4)));
 typedef uint8_t pk_b __attribute__((vector_size(PK_VW * 4)));
 
-/* Bit reversal of each lane: defined by the including file, with the best
- * byte shuffle its instruction set has. */
+/* Bit reversal of each lane, and lane l of the result = lane idx[l] of x
+ * (idx < PK_VW): defined by the including file, with the best shuffles
+ * its instruction set has. */
 static inline pk_u pk_reverse(pk_u x);
+static inline pk_u pk_permute(pk_u x, pk_u idx);
 
 static inline pk_u pk_load(const uint32_t *p)
 {
@@ -181,7 +183,7 @@ pk_value(const pk_lanes *v, const uint32_t *in, uint32_t row0, uint32_t w, int i
     if (index_mode)
         x = pk_perm(pk_splat(row0) + v->rowoff, w, v->perm);
     else if (paired) /* both columns of a pair read its one staged word */
-        x = __builtin_shuffle(pk_load(in + v->base), v->src);
+        x = pk_permute(pk_load(in + v->base), v->src);
     else
         x = pk_load(in + v->base);
     if (any_dim1)

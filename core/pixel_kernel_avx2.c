@@ -33,6 +33,11 @@ static inline pk_u pk_reverse(pk_u x)
                                  _mm256_shuffle_epi8(rev_lo, high));
 }
 
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+    return (pk_u)_mm256_permutevar8x32_epi32((__m256i)x, (__m256i)idx);
+}
+
 void qmc__pixel_emit_avx2(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
                           uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
                           void *scratch);

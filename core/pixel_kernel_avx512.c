@@ -31,6 +31,11 @@ static inline pk_u pk_reverse(pk_u x)
                                  _mm512_shuffle_epi8(rev_lo, high));
 }
 
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+    return (pk_u)_mm512_permutexvar_epi32((__m512i)idx, (__m512i)x);
+}
+
 void qmc__pixel_emit_avx512(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
                           uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
                           void *scratch);

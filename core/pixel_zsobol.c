@@ -165,7 +165,9 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
     }
     /* Node m of level j spans samples [m 2^top, (m + 1) 2^top); its hash
      * key is the Morton index above them: (mpix >> top) + m. */
-    enum { NODES = QMC__PIXEL_STAGE_WORDS / 2 + 8 * 17 };
+    /* Level j has at most n / 2^top[j] + 2 nodes, each level rounded up
+     * to 8: with top = 1, 3, 5, ... (odd L) under 2n / 3 + 9 per level. */
+    enum { NODES = QMC__PIXEL_STAGE_WORDS * 2 / 3 + 9 * 17 + 16 };
     uint8_t perm[NODES + 16];
     uint32_t val[NODES];
     uint32_t first[17], base[17], sh[17], top[17];

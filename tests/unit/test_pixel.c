@@ -135,6 +135,13 @@ static void test_fill_equals_at_blocks(void **state)
             check_tile(p, tile(60, 61, 2, 2, spp > 8 ? 1000 : 3, spp > 8 ? 3000 : 5));
             qmc_pixels_free(p);
         }
+    /* One value per sample: the longest blocks, and zsobol's odd log2 spp
+     * has a tree node per 2 samples at the bottom. */
+    for (size_t s = 0; s < 3; s++) {
+        qmc_pixels *p = make(all[s], 3, 3, 1u << 13, 5, 2, 1);
+        check_tile(p, tile(1, 1, 2, 1, 0, 1u << 13));
+        qmc_pixels_free(p);
+    }
     /* padded-sobol's spp need not be a power of two (cycle walking). */
     qmc_pixels *p = make(QMC_PIXEL_PADDED_SOBOL, 33, 9, 1000, 5, 0, 6);
     check_tile(p, tile(30, 4, 3, 5, 0, 1000));
