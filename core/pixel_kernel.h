@@ -209,7 +209,10 @@ static inline __attribute__((always_inline)) void pk_put(void *dst, size_t k, pk
         /* u32 -> f64 and the power-of-two scale are exact. */
         pk_d d[2] = {__builtin_convertvector(lo, pk_d) * 0x1p-32,
                      __builtin_convertvector(hi, pk_d) * 0x1p-32};
-        memcpy((double *)dst + k, d, n * sizeof(double));
+        if (n == PK_VW) /* a constant size: vector stores, not a call */
+            memcpy((double *)dst + k, d, sizeof d);
+        else
+            memcpy((double *)dst + k, d, n * sizeof(double));
         return;
     }
     if (fmt == QMC_FORMAT_F32) {
@@ -230,13 +233,20 @@ pk_run(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start, uin
 {
     const size_t total = (size_t)rows * pt->nc;
     uint32_t row0 = (uint32_t)row_start;
-    if (pt->period == PK_VW) {
-        /* One vector per period (nc divides the lanes): the pattern stays
-         * in registers. */
-        const pk_lanes v = pk_lanes_at(pt, 0);
-        for (size_t q = 0; q < total; q += PK_VW) {
-            const pk_u x = pk_value(&v, in, row0, w, index_mode, paired, any_dim1, any_plain);
+    if (pt->period <= 2 * PK_VW) {
+        /* One or two vectors per period (nc divides 16 or is 32, AVX2's
+         * 8 lanes): the pattern stays in registers. */
+        const int two = pt->period == 2 * PK_VW;
+        const pk_lanes v0 = pk_lanes_at(pt, 0), v1 = pk_lanes_at(pt, two ? PK_VW : 0);
+        for (size_t q = 0; q < total;) {
+            pk_u x = pk_value(&v0, in, row0, w, index_mode, paired, any_dim1, any_plain);
             pk_put(dst, q, x, total - q < PK_VW ? (uint32_t)(total - q) : PK_VW, fmt);
+            q += PK_VW;
+            if (two && q < total) {
+                x = pk_value(&v1, in, row0, w, index_mode, paired, any_dim1, any_plain);
+                pk_put(dst, q, x, total - q < PK_VW ? (uint32_t)(total - q) : PK_VW, fmt);
+                q += PK_VW;
+            }
             row0 += pt->rows_per_period;
             if (!index_mode)
                 in += pt->in_per_period;

@@ -85,7 +85,9 @@ static void padded_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
     for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
         nc = qmc__pixel_pass_cols(dims, d0);
         const uint32_t np = (nc + 1) / 2;
-        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
+        /* Rows per block: the staging holds np words a row; the scratch
+         * (nc values a row) serves only passes narrower than a row. */
+        uint32_t rows = QMC__PIXEL_STAGE_WORDS / (nc == dims ? np : nc);
         if (rows > t->sample_count)
             rows = (uint32_t)t->sample_count;
         for (uint32_t c = 0; c < nc; c++)
