@@ -166,6 +166,14 @@ static void test_fill_equals_at_huge(void **state)
     check_tile(p, tile(0, 0, 1, 1, (1ull << 63) - 100, 100));
     check_tile(p, tile(0, 0, 1, 1, 0xfffffffeull, 5));
     qmc_pixels_free(p);
+    /* zsobol's fast path at its edge: sample parts of 32 and 31 bits. */
+    p = make(QMC_PIXEL_ZSOBOL, 2, 2, 1ull << 32, 9, 3, 5);
+    check_tile(p, tile(0, 1, 2, 1, (1ull << 32) - 37, 37));
+    check_tile(p, tile(1, 0, 1, 1, (1ull << 31) - 9, 20));
+    qmc_pixels_free(p);
+    p = make(QMC_PIXEL_ZSOBOL, 3, 2, 1ull << 31, 9, 0, 2);
+    check_tile(p, tile(2, 1, 1, 1, (1ull << 31) - 45, 45));
+    qmc_pixels_free(p);
     /* padded-sobol: spp 2^32, the largest its shuffle takes. */
     p = make(QMC_PIXEL_PADDED_SOBOL, 3, big, 1ull << 32, 11, 0, 4);
     check_tile(p, tile(0, big - 2, 3, 2, (1ull << 32) - 20, 20));
