@@ -26,6 +26,14 @@ static const uint8_t perm4[24][4] = {
     {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 3, 0, 1}, {2, 3, 1, 0},
     {3, 1, 2, 0}, {3, 1, 0, 2}, {3, 2, 1, 0}, {3, 2, 0, 1}, {3, 0, 2, 1}, {3, 0, 1, 2}};
 
+/* The same rows as 32-bit lanes, for four children at once. */
+typedef uint32_t zs_u4 __attribute__((vector_size(16)));
+static const zs_u4 perm4w[24] = {
+    {0, 1, 2, 3}, {0, 1, 3, 2}, {0, 2, 1, 3}, {0, 2, 3, 1}, {0, 3, 2, 1}, {0, 3, 1, 2},
+    {1, 0, 2, 3}, {1, 0, 3, 2}, {1, 2, 0, 3}, {1, 2, 3, 0}, {1, 3, 2, 0}, {1, 3, 0, 2},
+    {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 3, 0, 1}, {2, 3, 1, 0},
+    {3, 1, 2, 0}, {3, 1, 0, 2}, {3, 2, 1, 0}, {3, 2, 0, 1}, {3, 0, 2, 1}, {3, 0, 1, 2}};
+
 typedef struct zsobol_tables {
     uint32_t log2_spp; /* L: the sample's bits at the bottom of the index */
     uint32_t digits;   /* pbrt's nBase4Digits: log2 res + ceil(L / 2) */
@@ -181,15 +189,27 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         const uint32_t cnt = (uint32_t)(m1 - m0 + 1);
         first[j] = (uint32_t)m0;
         base[j] = used;
-        qmc__pixel_nodes(p->isa, (mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0), perm + used);
+        qmc__pixel_nodes(p->isa, (mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0),
+                         perm + used);
         uint32_t *v = val + used;
         if (j + 1 == nl) {
             for (uint32_t m = 0; m < cnt; m++)
                 v[m] = 0;
         } else {
-            /* A node's parent is m >> 2 one level up, its digit there m & 3. */
+            /* A node's parent is m >> 2 one level up, its digit there m & 3:
+             * the four children of a parent at once, from its row. */
             const uint32_t pb = base[j + 1], pf = first[j + 1], s1 = sh[j + 1];
-            for (uint32_t m = 0; m < cnt; m++) {
+            uint32_t m = 0;
+            for (; m < cnt && ((first[j] + m) & 3u); m++) {
+                const uint32_t mm = first[j] + m, q = (mm >> 2) - pf;
+                v[m] = val[pb + q] | (uint32_t)perm4[perm[pb + q]][mm & 3u] << s1;
+            }
+            for (; cnt - m >= 4; m += 4) {
+                const uint32_t q = ((first[j] + m) >> 2) - pf;
+                const zs_u4 kids = ((zs_u4){0} + val[pb + q]) | (perm4w[perm[pb + q]] << s1);
+                memcpy(v + m, &kids, sizeof kids);
+            }
+            for (; m < cnt; m++) {
                 const uint32_t mm = first[j] + m, q = (mm >> 2) - pf;
                 v[m] = val[pb + q] | (uint32_t)perm4[perm[pb + q]][mm & 3u] << s1;
             }
@@ -211,6 +231,12 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         const uint32_t m = (uint32_t)(i >> 2) - first[0];
         dst[0] = v0[m] | perm4[p0[m]][i & 3u];
     }
+    if (stride == 1) /* one pair a row: a node's four samples are adjacent */
+        for (; end - i >= 4; i += 4, dst += 4) {
+            const uint32_t m = (uint32_t)(i >> 2) - first[0];
+            const zs_u4 four = ((zs_u4){0} + v0[m]) | perm4w[p0[m]];
+            memcpy(dst, &four, sizeof four);
+        }
     for (; end - i >= 4; i += 4, dst += 4 * stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0], up = v0[m];
         const uint8_t *row = perm4[p0[m]];
