@@ -13,8 +13,8 @@
  * lane patterns (pixel_impl.h), scrambles, reverses once and stores in
  * the caller's format - no transposition.
  *
- * Must not: allocate, or read a staged block past its size rounded up to
- * QMC__PIXEL_PAD lanes (the callers pad their blocks that far).
+ * Must not: allocate, or read more than QMC__PIXEL_PAD words past a
+ * staged block's end (the callers' staging arrays have that much more).
  */
 #include <string.h>
 

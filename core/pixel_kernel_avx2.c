@@ -4,6 +4,9 @@
  * pixel_kernel.c calls them only when the CPU reports AVX2; -mavx2 does
  * not enable FMA and the build uses -ffp-contract=off, so the bits equal
  * the baseline's.
+ *
+ * Must not: be called on a CPU without AVX2 (pixel_kernel.c asks the
+ * CPU first), or differ from the baseline build in one bit.
  */
 #if defined(__x86_64__) && defined(__GNUC__) && defined(__AVX2__)
 #include <immintrin.h>

@@ -3,6 +3,9 @@
  * AVX-512 (F, VL, BW, DQ; the Makefile sets the flags for this file on
  * x86-64), 16 lanes.  pixel_kernel.c calls them only when the CPU reports
  * those extensions; the bits equal the baseline build's.
+ *
+ * Must not: be called on a CPU without AVX-512 F, VL, BW and DQ (pixel_kernel.c asks the
+ * CPU first), or differ from the baseline build in one bit.
  */
 #if defined(__x86_64__) && defined(__GNUC__) && defined(__AVX512BW__)
 #include <immintrin.h>
