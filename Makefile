@@ -215,7 +215,7 @@ fuzz-lib:
 # the core; a target that drives code outside them lists those sources as
 # FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
 # compiles sources in itself pulls nothing twice.
-FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
+FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c daemon/regular_file.c
 FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
 FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
 build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
