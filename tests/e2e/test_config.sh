@@ -9,7 +9,8 @@
 # start, and on SIGHUP, where the running configuration stays (issue 22,
 # finding 5).  Every qmcd here runs under `timeout` (-k: a started qmcd
 # blocks SIGTERM), so that one waiting for a FIFO's writer fails the test
-# instead of hanging it.
+# instead of hanging it.  --ready-file in a sticky directory writes through
+# no link another user planted under its temporary name.
 # Env: QMCD, QMC.  Prints "N passed, M failed".
 set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
@@ -155,6 +156,27 @@ if start live --config "$tmp/live.conf" --listen "unix:$tmp/live.sock"; then
     kill "$live"
     if wait_exit "$live" 30; then wait "$live"; st=$?; forget "$live"; else st=stuck; fi
     [ "$st" = 0 ] && ok || bad "qmcd after the FIFO reload: exit status $st"
+fi
+
+# --ready-file in a sticky, world-writable directory: another user's link
+# planted under the temporary name qmcd wrote the file under (READY.tmp on
+# main) is not written through; the ready file is a file of its own.
+if [ "$(id -u)" -eq 0 ]; then
+    sticky=$tmp/sticky
+    mkdir "$sticky"; chmod 1777 "$sticky"
+    echo "victim" > "$tmp/victim"
+    ln -s "$tmp/victim" "$sticky/r.ready.tmp"; chown -h 54321 "$sticky/r.ready.tmp"
+    "$QMCD" --foreground --listen "unix:$tmp/r.sock" \
+        --ready-file "$sticky/r.ready" 2> "$tmp/r.log" & rpid=$!
+    pids="$pids $rpid"
+    wait_nonempty "$sticky/r.ready" "$rpid"
+    if [ "$(cat "$tmp/victim")" = victim ] && [ ! -L "$sticky/r.ready" ] &&
+        grep -q "^pid $rpid\$" "$sticky/r.ready"; then ok
+    else bad "--ready-file wrote through a planted link: victim '$(head -n 1 "$tmp/victim")', $(cat "$tmp/r.log")"; fi
+    kill "$rpid"
+    if wait_exit "$rpid" 30; then wait "$rpid"; forget "$rpid"; fi
+else
+    echo "skip: --ready-file in a sticky directory (needs root to give a link another owner)"
 fi
 
 # 1M suffixes and the file's settings are what a run would use
