@@ -8,6 +8,9 @@
  * watchdog arms, a tape rewinds), so nothing but a regular file is opened
  * at all.  Must not: read, wait, or open anything but a regular file.
  */
+/* O_CLOEXEC and S_ISSOCK, also where this is compiled without the
+ * Makefile's -D_POSIX_C_SOURCE (the config fuzz target). */
+#define _GNU_SOURCE
 #include "regular_file.h"
 
 #include <errno.h>
