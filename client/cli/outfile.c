@@ -224,6 +224,11 @@ int cli_outfile_open(cli_outfile *o, const char *path, const char *what)
         cli_outfile_abort(o);
         return cli_error("%s: '%s' is a symbolic link to a missing file", what, path);
     }
+    if (!exists && w.dir_only) {
+        cli_outfile_abort(o);
+        return cli_error("%s: '%s' ends in '/', so it names a directory, not a file", what,
+                         path);
+    }
     if (exists && !S_ISREG(st.st_mode)) {
         if (open_in_place(o, &st) != 0) {
             cli_outfile_abort(o);

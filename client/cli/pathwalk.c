@@ -165,8 +165,10 @@ int cli_pathwalk_open(cli_pathwalk *w, const char *path, const char *what)
         }
         struct stat st;
         if (fstatat(dfd, comp, &st, AT_SYMLINK_NOFOLLOW) != 0) {
-            if (errno == ENOENT && last && !trailing)
-                break; /* a new file: w->exists stays 0 */
+            if (errno == ENOENT && last) {
+                w->dir_only = trailing; /* "new/": only a directory fits */
+                break;                  /* a new name: w->exists stays 0 */
+            }
             err = errno;
             goto fail;
         }

@@ -33,6 +33,8 @@ typedef struct cli_pathwalk {
                            name), for messages */
     int exists;         /* name exists in dirfd; st is then its lstat */
     int through_link;   /* the last component came from a link's target */
+    int dir_only;       /* a missing name followed by "/" in the path: it
+                           can only be made as a directory */
     struct stat st;
 } cli_pathwalk;
 
@@ -42,8 +44,8 @@ typedef struct cli_pathwalk {
  * CLI_EXIT_FAIL after printing one error line: a link the rule refuses
  * (naming the link, its owner, the directory and its owner), more than 40
  * links, a component that is missing or not a directory, or a system error.
- * A missing last component is not an error (exists is 0).  w is closed on
- * failure.
+ * A missing last component is not an error (exists is 0; dir_only when
+ * the path ends in "/" after it).  w is closed on failure.
  */
 int cli_pathwalk_open(cli_pathwalk *w, const char *path, const char *what);
 

@@ -394,7 +394,11 @@ static void test_pathwalk(void **state)
     cli_pathwalk_close(&w);
     /* a missing last component is a new file, not an error */
     assert_int_equal(cli_pathwalk_open(&w, path_in("d/new"), "--out"), 0);
-    assert_true(walked_to(&w, path_in("d")) && !w.exists);
+    assert_true(walked_to(&w, path_in("d")) && !w.exists && !w.dir_only);
+    cli_pathwalk_close(&w);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/newdir/"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d")) && !w.exists && w.dir_only);
+    assert_string_equal(w.name, "newdir");
     cli_pathwalk_close(&w);
     /* a trailing slash or "." names the directory itself */
     assert_int_equal(cli_pathwalk_open(&w, path_in("d/e/"), "--out"), 0);
