@@ -36,7 +36,6 @@
 #include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
@@ -238,7 +237,8 @@ static void drop_passed_fd(qmcd_conn *c)
 static void drop_work(qmcd_conn *c)
 {
     qmcd_producers_drop_all(c);
-    qmcd_jobs_drop_all(c);
+    qmcd_pool_tenant_release(c->srv->pool, c->tenant);
+    c->tenant = NULL;
     qmcd_ring_free(c->ring);
     c->ring = NULL;
     drop_passed_fd(c);
@@ -599,8 +599,7 @@ void qmcd_conn_kick(qmcd_conn *c)
          * per request.  PRODUCE_LIMIT keeps one connection from holding
          * the loop. */
         for (int k = 0; k < PRODUCE_LIMIT && !c->closing && !c->dead; k++) {
-            int p = qmcd_jobs_pump(c);
-            p |= qmcd_producers_turn(c);
+            int p = qmcd_producers_turn(c);
             if (!p)
                 break;
             produced = 1;
@@ -630,7 +629,7 @@ void qmcd_conn_kick(qmcd_conn *c)
         return;
     }
     /* A peer that half-closed gets its answers, then we close. */
-    if (c->peer_eof && !c->closing && c->n_producers == 0 && c->n_jobs == 0 &&
+    if (c->peer_eof && !c->closing && c->n_producers == 0 &&
         c->out_tail == c->out_head) {
         qmcd_conn_close(c, "peer closed");
         return;
@@ -712,14 +711,14 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                            (unsigned long long)cfg->frame_timeout_ms);
             continue;
         }
-        if (c->n_producers == 0 && c->n_jobs == 0 && c->out_tail == c->out_head &&
+        if (c->n_producers == 0 && c->out_tail == c->out_head &&
             c->in_len == 0 && now - c->active_ms >= (int64_t)cfg->idle_timeout_ms) {
             srv->stats.conns_timed_out++;
             qmcd_conn_fail(c, 0, -ETIMEDOUT, "idle-timeout-ms: idle for %llu ms",
                            (unsigned long long)cfg->idle_timeout_ms);
             continue;
         }
-        qmcd_jobs_tick(c, now);
+        qmcd_producers_tick(c, now);
         if (!c->dead)
             qmcd_conn_kick(c);
     }
@@ -740,13 +739,13 @@ void qmcd_conns_close_idle(qmcd_server *srv)
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {
         next = c->next;
-        if (!c->closing && c->n_producers == 0 && c->n_jobs == 0 &&
+        if (!c->closing && c->n_producers == 0 &&
             c->out_tail == c->out_head)
             qmcd_conn_fail(c, 0, -ESHUTDOWN, "server shutting down");
     }
 }
 
-void qmcd_conns_close_streams(qmcd_server *srv, const char *why)
+void qmcd_conns_deadline(qmcd_server *srv, const char *why)
 {
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {

@@ -163,10 +163,8 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
      * answer, so it ends the request in flight as well, whatever the new
      * request is. */
     qmcd_producer *in_flight = is_request(m->type) ? qmcd_producers_find(c, m->request_id) : NULL;
-    if (in_flight || (is_request(m->type) && qmcd_jobs_has_request(c, m->request_id))) {
-        if (in_flight)
-            qmcd_producers_end(c, in_flight, QMCD_END_ENDED);
-        qmcd_jobs_end_request(c, m->request_id);
+    if (in_flight) {
+        qmcd_producers_end(c, in_flight, QMCD_END_ENDED);
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,
                         "request id %llu is already in flight on this connection; this ERROR "
                         "ends both requests", (unsigned long long)m->request_id);
@@ -213,7 +211,7 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
                         "server shutting down: no new requests accepted");
         return;
     }
-    if (c->n_producers + c->n_jobs >= srv->cfg.max_inflight) {
+    if (c->n_producers >= srv->cfg.max_inflight) {
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-inflight: %llu requests already in flight on this connection",
                         (unsigned long long)srv->cfg.max_inflight);

@@ -107,8 +107,7 @@ static void drain_step(qmcd_server *srv, int64_t now)
         if (srv->n_jobs)
             qmcd_warn("shutdown deadline: cancelling %llu job(s)",
                       (unsigned long long)srv->n_jobs);
-        qmcd_jobs_cancel_all(srv);
-        qmcd_conns_close_streams(srv, "server shutting down: stream cut");
+        qmcd_conns_deadline(srv, "server shutting down: stream cut");
     }
     if (now >= srv->drain_deadline_ms + 1000)
         qmcd_conns_close_all(srv, "server shutting down");
