@@ -22,6 +22,11 @@
  * loop then answers JOB_RESULT or ERROR, tagged with the INTEGRATE's
  * request id.  Runner threads never touch connections, sockets or the
  * loop's state; the loop never runs blocks.
+ *
+ * On its connection a job is a producer (producer.h): it waits on its
+ * worker (QMCD_WAIT_WORK), and its pump answers once the worker is done.
+ * INTEGRATE, JOB_STATUS and JOB_CANCEL reach it through the rows of
+ * qmcd_jobs_module; the connection only through conn_services.h.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -29,13 +34,14 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <unistd.h>
 
 #include "conn_services.h"
-#include "jobs.h"
 #include "log.h"
+#include "loop.h"
+#include "modules.h"
 #include "pool.h"
-#include "producer.h"
 
 enum { CANCEL_NONE = 0, CANCEL_CLIENT, CANCEL_TIMEOUT, CANCEL_SHUTDOWN, CANCEL_GONE };
 
@@ -217,8 +223,11 @@ static double *copy_list(const qmc_f64s *l)
     return v;
 }
 
-void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+/* INTEGRATE: validates the job, answers JOB_ACCEPTED and submits it, or
+ * answers ERROR. */
+static void on_integrate(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
+    (void)fd;
     qmcd_server *srv = qmcd_conn_server(c);
     const qmc_msg_integrate *g = &m->u.integrate;
     if (qmcd_producer_count(c, &job_kind) >= srv->cfg.max_jobs_per_conn) {
@@ -333,8 +342,9 @@ static void send_unknown(qmcd_conn *c, const qmc_msg *m)
     qmcd_conn_send(c, &r);
 }
 
-void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+static void on_status(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
+    (void)fd;
     job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);
@@ -346,8 +356,9 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     qmcd_answered(qmcd_conn_server(c), t0_us);
 }
 
-void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+static void on_cancel(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
+    (void)fd;
     qmcd_server *srv = qmcd_conn_server(c);
     if (!qmcd_producer_cancel_allowed(c)) {
         srv->stats.cancel_refusals++;
@@ -449,7 +460,8 @@ static qmcd_wait job_waiting(const qmcd_conn *c, const qmcd_producer *p)
     return JOB_OF(p)->finished ? QMCD_WAIT_NONE : QMCD_WAIT_WORK;
 }
 
-void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
+/* The pool's eventfd watch: finished jobs come back to the loop here. */
+static void on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
 {
     (void)events;
     uint64_t n;
@@ -541,4 +553,23 @@ static const qmcd_producer_kind job_kind = {
     .tick = job_tick,
     .shutdown = job_shutdown,
     .release = job_release,
+};
+
+/* The pool's finished jobs come back through its eventfd, on the loop. */
+static int jobs_open(qmcd_server *srv)
+{
+    srv->done.fd = qmcd_pool_eventfd(srv->pool);
+    srv->done.on_event = on_done;
+    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
+}
+
+const qmcd_module qmcd_jobs_module = {
+    .name = "jobs",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_INTEGRATE, QMCD_ROUTE_REQUEST | QMCD_ROUTE_STARTS, on_integrate},
+        {QMC_MSG_JOB_STATUS, QMCD_ROUTE_REQUEST, on_status},
+        {QMC_MSG_JOB_CANCEL, QMCD_ROUTE_REQUEST, on_cancel},
+        {0, 0, NULL},
+    },
+    .open = jobs_open,
 };
