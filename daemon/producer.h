@@ -8,7 +8,8 @@
  * stream (points.c), an INTEGRATE job (jobs.c), a PIXELS tile, an
  * integration session.  Its kind is a const table of functions
  * (qmcd_producer_kind); the producer itself is a qmcd_producer embedded
- * first in the kind's own struct.  A connection holds its producers in one
+ * in the kind's own struct (first, so a cast finds the struct; jobs.c,
+ * whose first member is the pool's, uses offsetof).  A connection holds its producers in one
  * list, in turn order, and
  *   - pumps them when its output buffer may have room: each pump queues at
  *     most one frame and says how the producer stands (qmcd_pump);
@@ -134,8 +135,8 @@ struct qmcd_producer_kind {
     void (*release)(qmcd_conn *c, qmcd_producer *p, qmcd_end why);
 };
 
-/* The part of a producer the connection reads and writes; embedded first
- * in the kind's own struct. */
+/* The part of a producer the connection reads and writes; embedded in
+ * the kind's own struct. */
 struct qmcd_producer {
     const qmcd_producer_kind *kind;
     qmcd_producer *next;          /* the connection's list, in turn order */
