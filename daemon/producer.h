@@ -127,11 +127,12 @@ struct qmcd_producer_kind {
     /* The shutdown deadline passed (shutdown-timeout-ms after SIGTERM).
      * Returns 0 when p stops by itself and answers (a job cancelled, its
      * ERROR follows), 1 when it cannot end cleanly and its connection must
-     * be cut (a stream).  NULL counts as 1. */
+     * be cut (a stream).  Sends nothing.  NULL counts as 1. */
     int (*shutdown)(qmcd_conn *c, qmcd_producer *p);
     /* p is off the connection's list: free it (or hand it to whoever still
      * holds it, like a worker).  With QMCD_END_DROPPED the connection is
-     * going away and must not be sent anything. */
+     * going away and must not be sent anything; with QMCD_END_ENDED the
+     * caller sends the ERROR.  Never sends. */
     void (*release)(qmcd_conn *c, qmcd_producer *p, qmcd_end why);
 };
 
