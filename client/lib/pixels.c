@@ -7,10 +7,11 @@
  * y, then x; each pixel's samples; each sample's dims values), numbered
  * from 0.  A tile of more samples than the server's max_points is asked
  * for in several requests, each a piece of the tile whose output is one
- * contiguous run of the whole tile's output - whole rows where a row fits,
- * else whole pixels of one row, else part of one pixel's samples - so the
- * caller sees one stream, the same bytes as one request (and as
- * qmc_pixels_fill in-process), whatever the daemon's limit.
+ * contiguous run of the whole tile's output (qmc_pixel_tile_piece: whole
+ * rows where a row fits, else whole pixels of one row, else part of one
+ * pixel's samples), so the caller sees one stream, the same bytes as one
+ * request (and as qmc_pixels_fill in-process), whatever the daemon's
+ * limit.
  *
  * Must not: hold more than one chunk, print, or send PIXELS to a server
  * that did not choose version 4 (an older one closes the connection on
@@ -19,39 +20,6 @@
 #include <string.h>
 
 #include "client_impl.h"
-
-/* The next piece of tile t from output sample `done` on: a sub-tile whose
- * output is contiguous in t's output and holds at most max (>= 1)
- * samples.  t is not empty and `done` is below its sample count. */
-static qmc_pixel_tile next_piece(const qmc_pixel_tile *t, uint64_t done, uint64_t max)
-{
-    const uint64_t n = t->sample_count, w = t->width;
-    const uint64_t pixel = done / n, s = done % n;
-    const uint32_t row = (uint32_t)(pixel / w), col = (uint32_t)(pixel % w);
-    qmc_pixel_tile p = {.x = t->x + col, .y = t->y + row, .width = 1, .height = 1,
-                        .sample_start = t->sample_start + s, .sample_count = n - s};
-    if (s == 0 && col == 0 && n <= max / w) {
-        /* Whole rows: a row is w * n <= max samples. */
-        uint64_t rows = max / (w * n);
-        if (rows > t->height - row)
-            rows = t->height - row;
-        p.width = t->width;
-        p.height = (uint32_t)rows;
-        return p;
-    }
-    if (s == 0 && n <= max) {
-        /* Whole pixels of this row. */
-        uint64_t pixels = max / n;
-        if (pixels > w - col)
-            pixels = w - col;
-        p.width = (uint32_t)pixels;
-        return p;
-    }
-    /* Part of one pixel's samples. */
-    if (p.sample_count > max)
-        p.sample_count = max;
-    return p;
-}
 
 /* Passes each chunk on with its index in the whole tile's output: a
  * piece's points are numbered from 0, and it starts at `base`. */
@@ -119,7 +87,9 @@ int qmc_client_pixels_stream(qmc_client *c, const qmc_pixel_spec *spec,
     const uint64_t max = c->max_points ? c->max_points : total;
     uint64_t done = 0;
     do {
-        const qmc_pixel_tile piece = next_piece(tile, done, max);
+        qmc_pixel_tile piece;
+        if (qmc_pixel_tile_piece(tile, done, max, &piece) != 0) /* cannot: done < total */
+            return qmc__client_fail(c, QMC_EINVAL, "pixels: cutting the tile failed");
         const uint64_t n = (uint64_t)piece.width * piece.height * piece.sample_count;
         piece_ctx k = {on_chunk, ctx, done};
         m.u.pixels.tile = piece;
