@@ -81,17 +81,22 @@ typedef struct pixels_opts {
 static int parse_tuple(const char *opt, const char *form, const char *text, size_t n,
                        uint64_t max, uint64_t *out)
 {
-    const char *p = text, *item;
-    size_t len, k = 0;
+    const char *p = text, *item = text;
+    size_t len = 0, k = 0;
+    int bad = text[0] == '\0';
     char buf[32];
-    while (cli_list_next(&p, &item, &len)) {
-        if (k == n || cli_list_copy(item, len, buf, sizeof buf) != 0)
+    while (!bad && cli_list_next(&p, &item, &len)) {
+        /* one too many, an empty item, or an item too long for a number */
+        if (k == n || cli_list_copy(item, len, buf, sizeof buf) != 0) {
+            bad = 1;
             break;
+        }
         if (cli_parse_u64(opt, buf, 0, max, &out[k]))
             return -1;
         k++;
     }
-    if (k != n || *p != '\0' || (len && item[len] == ',') || text[0] == '\0') {
+    /* A trailing comma ends the list without an item after it. */
+    if (bad || k != n || (len && item[len] == ',')) {
         cli_error("%s: '%s' is not %s", opt, text, form);
         return -1;
     }
