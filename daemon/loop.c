@@ -38,26 +38,6 @@
 #include "main.h"
 #include "modbus_bridge.h"
 
-int64_t qmcd_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
-void qmcd_answered(qmcd_server *srv, int64_t t0_us)
-{
-    if (qmcd_stats_answered(&srv->stats, t0_us))
-        qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
-}
-
-int64_t qmcd_now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
-
 int qmcd_loop_add(qmcd_server *srv, qmcd_watch *w, uint32_t events)
 {
     struct epoll_event ev = {.events = events, .data.ptr = w};

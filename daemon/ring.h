@@ -24,4 +24,16 @@ struct qmcd_ring {
 /* Unmaps and frees the ring; NULL is a no-op. */
 void qmcd_ring_free(struct qmcd_ring *r);
 
+/* Filling the ring, for any producer that streams through it (POINTS
+ * today; PIXELS and sessions alike).  While qmcd_ring_full says 1 the
+ * producer waits (QMCD_WAIT_RING, QMCD_PUMP_WAIT); otherwise it writes at
+ * most slot_bytes at qmcd_ring_next, queues the frame that names *slot, and
+ * then calls qmcd_ring_hand_out. */
+int qmcd_ring_full(const struct qmcd_ring *r);
+uint8_t *qmcd_ring_next(const struct qmcd_ring *r, uint32_t *slot);
+/* The slot qmcd_ring_next named is the client's until SHM_RELEASE.
+ * Returns 1 when the frames queued since the last such 1 should be sent
+ * now (half the ring is out, or all of it: QMCD_PUMP_FLUSH). */
+int qmcd_ring_hand_out(struct qmcd_ring *r);
+
 #endif
