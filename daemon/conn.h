@@ -13,7 +13,6 @@
 #include "qmc/proto.h"
 #include "server.h"
 
-typedef struct qmcd_stream qmcd_stream;
 typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_auth_conn qmcd_auth_conn;
 typedef struct qmcd_producer qmcd_producer;
@@ -70,14 +69,12 @@ struct qmcd_conn {
                                     (producer.h, producer.c) */
     unsigned n_producers;        /* on that list */
     unsigned n_bulk;             /* of them QMCD_PRODUCER_BULK */
-    qmcd_stream *streams;        /* POINTS in progress, round robin */
-    unsigned n_streams;
     qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
     unsigned n_jobs;
     qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
     uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
     int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
-    qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
+    qmcd_ring *ring;             /* the client's shared-memory ring (ring.h),
                                     or NULL */
     qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE
                                     (auth.c), or NULL */

@@ -19,6 +19,7 @@
 #include "log.h"
 #include "modbus_bridge.h"
 #include "points.h"
+#include "producer.h"
 #include "qmc/seq.h"
 
 /* HELLO: the highest version both sides speak (PROTOCOL.md section 4). */
@@ -161,10 +162,10 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     /* An id already in flight (section 3): the ERROR is that id's final
      * answer, so it ends the request in flight as well, whatever the new
      * request is. */
-    if (is_request(m->type) &&
-        (qmcd_points_has_request(c, m->request_id) ||
-         qmcd_jobs_has_request(c, m->request_id))) {
-        qmcd_points_end_request(c, m->request_id);
+    qmcd_producer *in_flight = is_request(m->type) ? qmcd_producers_find(c, m->request_id) : NULL;
+    if (in_flight || (is_request(m->type) && qmcd_jobs_has_request(c, m->request_id))) {
+        if (in_flight)
+            qmcd_producers_end(c, in_flight, QMCD_END_ENDED);
         qmcd_jobs_end_request(c, m->request_id);
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,
                         "request id %llu is already in flight on this connection; this ERROR "
@@ -212,7 +213,7 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
                         "server shutting down: no new requests accepted");
         return;
     }
-    if (c->n_streams + c->n_jobs >= srv->cfg.max_inflight) {
+    if (c->n_producers + c->n_jobs >= srv->cfg.max_inflight) {
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-inflight: %llu requests already in flight on this connection",
                         (unsigned long long)srv->cfg.max_inflight);

@@ -30,6 +30,7 @@
 #include <sys/vfs.h>
 #include <unistd.h>
 
+#include "conn.h"
 #include "log.h"
 #include "points.h"
 #include "ring.h"
