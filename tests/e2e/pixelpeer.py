@@ -52,10 +52,11 @@ def cli_args(sampler="zsobol", width=64, height=32, spp=16, seed=0, frame_=0, di
     return a
 
 
-def read_stream(p, rid, want_samples, row_bytes, release=True):
-    """A PIXELS answer inline (POINTS_CHUNK) or through p's ring: returns
-    (data, END dict, chunk frames).  Checks order and END's totals."""
-    data, expect, chunks = bytearray(), 0, 0
+def read_stream(p, rid, want_samples, row_bytes, release=True, start=0):
+    """A PIXELS answer inline (POINTS_CHUNK) or through p's ring, from
+    sample `start` on (the chunks before it already read): returns (data,
+    END dict, chunk frames).  Checks order and END's totals."""
+    data, expect, chunks = bytearray(), start, 0
     for _ in range(1 << 20):
         t, r, d = p.recv()
         if r != rid:
@@ -63,8 +64,8 @@ def read_stream(p, rid, want_samples, row_bytes, release=True):
         if t == "ERROR":
             raise PeerError(d)
         if t == "END":
-            if d["points"] != want_samples or d["bytes"] != len(data) or \
-                    len(data) != want_samples * row_bytes:
+            if d["points"] != want_samples or d["bytes"] != (len(data) + start * row_bytes) or \
+                    len(data) != (want_samples - start) * row_bytes:
                 raise ValueError("END %r after %d bytes, %d samples wanted" %
                                  (d, len(data), want_samples))
             if p.ring and p.ring[4] and release:
@@ -191,7 +192,7 @@ def sc_errors(addr, qmc, ref_file):
     check("then the connection is usable", b.ping())
     b.close()
     # A's tile resumes and arrives whole, the same bytes as in-process.
-    data, end, chunks = read_stream(a, rid_a, 128 * 128 * 64 - first["points"], 16)
+    data, end, chunks = read_stream(a, rid_a, 128 * 128 * 64, 16, start=first["points"])
     data = first["data"] + data
     check("the big tile, streamed meanwhile, equals the in-process one (%d chunks)" %
           (chunks + 1), data == ref, "%d vs %d bytes" % (len(data), len(ref)))
