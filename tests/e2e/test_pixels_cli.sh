@@ -16,7 +16,7 @@
 #      (k+1)*N/K) of each pixel (some nodes local, some remote); Python
 #      reassembles them per pixel into one request's bytes;
 #   5. bad input: one line naming the problem, exit 2, no output, the same
-#      line in-process and remote;
+#      line in-process and remote; the daemon's max-seq-memory refusal;
 #   6. the daemon answers bad PIXELS requests (sent raw, past the CLI's
 #      checks) with one-line ERRORs while it streams a tile to another
 #      client, and a client that negotiated version 3 gets QMC_ENOTSUP
@@ -43,8 +43,9 @@ pid=$!
 wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
 UNIX="unix:$tmp/qmcd.sock"
 TCP=$(grep '^tcp:' "$tmp/ready" | head -n 1)
-# A daemon that takes 1000 samples a request: the client cuts tiles.
-"$QMCD" --foreground --listen "unix:$tmp/small.sock" --max-points 1000 \
+# A daemon that takes 1000 samples a request (the client cuts tiles) and
+# holds at most 1 MiB of sampler tables.
+"$QMCD" --foreground --listen "unix:$tmp/small.sock" --max-points 1000 --max-seq-memory 1M \
     --ready-file "$tmp/ready2" 2> "$tmp/qmcd2.log" &
 pid2=$!
 wait_ready pid2 "$tmp/ready2" "$tmp/qmcd2.log"
@@ -259,6 +260,14 @@ expect_fail "a stray argument" "unexpected argument 'stray'" $G --tile 0,0,1,1 s
 "$QMC" pixels $G --tile 3,3,2,2 --seed 0xffffffff --format u32 > "$tmp/hex" 2>> "$tmp/err"
 if [ -s "$tmp/neg" ] && cmp -s "$tmp/neg" "$tmp/hex" && [ ! -s "$tmp/err" ]; then ok
 else bad "--seed -1 differs from --seed 0xffffffff: $(cat "$tmp/err")"; fi
+# The daemon's own limit: a sobol sampler of 21201 dims (4.4 MB of tables)
+# past the small daemon's max-seq-memory of 1 MiB.
+"$QMC" pixels --sampler sobol --resolution 8,8 --spp 4 --tile 0,0,1,1 --dims 21201 \
+    --connect "$SMALL" > "$tmp/out" 2> "$tmp/err"
+rc=$?
+if [ $rc -eq 2 ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] && [ ! -s "$tmp/out" ] &&
+   grep -q "^qmc: max-seq-memory: .* 1048576-byte limit" "$tmp/err"; then ok
+else bad "max-seq-memory: rc=$rc '$(cat "$tmp/err")'"; fi
 # A daemon that is not there: one line, exit 2.
 "$QMC" pixels $G --tile 0,0,1,1 --connect "unix:$tmp/nobody.sock" > "$tmp/out" 2> "$tmp/err"
 rc=$?
