@@ -12,12 +12,19 @@ requests the CLI would refuse before sending them reach the daemon here.
                                              QMC_ENOTSUP, and stays usable
     pixelpeer.py ring ADDR REFERENCE         the tile through the shared-
                                              memory ring, chunk by slot
+    pixelpeer.py hold ADDR MARKER GONE       starts the big tile, reads one
+                                             chunk, creates MARKER, reads
+                                             nothing more until GONE exists
+                                             (the daemon was stopped and has
+                                             exited): it must have cut the
+                                             connection, no END
 
 REFERENCE holds `qmc pixels --sampler padded-sobol --resolution 512,512
 --spp 64 --tile 0,0,128,128 --dims 4 --format u32`, computed in-process.
 """
 import os
 import struct
+import time
 import subprocess
 import sys
 
@@ -191,6 +198,15 @@ def sc_errors(addr, qmc, ref_file):
           repr(seen[-3:]))
     check("then the connection is usable", b.ping())
     b.close()
+    # A client that hangs up in the middle of a tile: the daemon lets go.
+    h = Peer(addr, version=4, timeout=30)
+    h.send(pixels_frame(h.rid(), sampler=REF["sampler"], width=512, height=512, spp=64,
+                        dims=4, tile=REF["tile"], fmt="u32"))
+    t, r, d = h.recv()
+    h.close()
+    s = Peer(addr, version=4, timeout=30)
+    check("after a client hung up mid-tile, another is served", ask(s, tile=(1, 1, 3, 3)) is None)
+    s.close()
     # A's tile resumes and arrives whole, the same bytes as in-process.
     data, end, chunks = read_stream(a, rid_a, 128 * 128 * 64, 16, start=first["points"])
     data = first["data"] + data
@@ -234,7 +250,39 @@ def sc_ring(addr, ref_file):
     p.close()
 
 
-SCENARIOS = dict(errors=sc_errors, version=sc_version, ring=sc_ring)
+def sc_hold(addr, marker, gone):
+    p = Peer(addr, version=4, timeout=60)
+    rid = p.rid()
+    p.send(pixels_frame(rid, sampler=REF["sampler"], width=512, height=512, spp=64, dims=4,
+                        tile=REF["tile"], fmt="u32"))
+    t, r, d = p.recv()
+    check("hold: the big tile started", t == "POINTS_CHUNK" and r == rid, t)
+    open(marker, "w").close()
+    # Read nothing until the daemon has exited: the stream waits for room
+    # meanwhile, so only the shutdown deadline can end it.  Then drain
+    # what the socket holds.
+    for _ in range(1200):
+        if os.path.exists(gone):
+            break
+        time.sleep(0.05)
+    check("hold: the daemon exited while the tile waited", os.path.exists(gone))
+    seen, cut = set(), False
+    try:
+        for _ in range(1 << 16):
+            f = p.recv()
+            if f is None:
+                cut = True
+                break
+            seen.add(f[0])
+    except (ConnectionResetError, BrokenPipeError):
+        cut = True
+    except ValueError as e:  # cut in the middle of a chunk frame
+        cut = "EOF inside a frame" in str(e)
+    check("hold: stopped mid-tile, the connection is cut without END",
+          cut and "END" not in seen, repr((cut, seen)))
+
+
+SCENARIOS = dict(errors=sc_errors, version=sc_version, ring=sc_ring, hold=sc_hold)
 
 if __name__ == "__main__":
     sys.exit(q.main(sys.argv, SCENARIOS, "pixelpeer.py"))

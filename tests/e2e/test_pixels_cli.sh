@@ -22,7 +22,9 @@
 #      client, and a client that negotiated version 3 gets QMC_ENOTSUP
 #      (tests/e2e/pixelpeer.py on qmcpeer.py's independent codec);
 #   7. --out: the same bytes as stdout; nothing left behind on error;
-#   8. STATS counts the requests and the samples sent.
+#   8. STATS counts the requests, the samples sent and the ring attached;
+#   9. SIGTERM while a client holds a tile half read: the stream is cut at
+#      shutdown-timeout-ms (no END), and the daemon exits 0.
 # Env: QMC, QMCD (binaries).  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
@@ -38,7 +40,7 @@ term_vars="pid pid2"
 
 # ---- daemons ------------------------------------------------------------------
 "$QMCD" --foreground --listen "unix:$tmp/qmcd.sock" --listen tcp:127.0.0.1:0 \
-    --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
+    --shutdown-timeout-ms 1000 --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
 pid=$!
 wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
 UNIX="unix:$tmp/qmcd.sock"
@@ -309,11 +311,28 @@ st = json.load(open(sys.argv[1]))
 c = st.get("counters", st)
 assert c["requests_PIXELS"] > 50, "requests_PIXELS %r" % c.get("requests_PIXELS")
 assert c["pixel_samples_sent"] >= 128 * 128 * 64, "pixel_samples_sent %r" % c.get("pixel_samples_sent")
+# the CLI's large tiles over Unix came through the ring
+assert c["requests_SHM_ATTACH"] >= 1, "requests_SHM_ATTACH %r" % c.get("requests_SHM_ATTACH")
 PYEOF
 then ok; else bad "STATS: $(tail -n 1 "$tmp/why") $(cat "$tmp/err")"; fi
 
-# The daemons stop cleanly.
-for v in pid pid2; do
+# ---- 9. draining -------------------------------------------------------------------
+# SIGTERM while a client holds a tile half read: the daemon cuts that
+# stream at shutdown-timeout-ms and exits 0; the client sees no END.
+"$PY" "$HERE/pixelpeer.py" hold "$UNIX" "$tmp/holding" "$tmp/gone" > "$tmp/hold.out" 2>&1 &
+hold=$!
+pids="$pids $hold"
+if wait_file "$tmp/holding" 400; then ok; else bad "hold: the tile never started: $(cat "$tmp/hold.out")"; fi
+kill "$pid"
+if wait "$pid"; then ok; else bad "qmcd did not exit 0 on SIGTERM with a tile open: $(tail -n 3 "$tmp/qmcd.log")"; fi
+pid=
+touch "$tmp/gone"
+wait "$hold"
+forget "$hold"
+tally "$tmp/hold.out" || bad "hold printed nothing"
+
+# The other daemon stops cleanly.
+for v in pid2; do
     eval "p=\$$v"
     kill "$p"
     if wait "$p"; then ok; else bad "$v: qmcd did not exit 0 on SIGTERM: $(tail -n 3 "$tmp/qmcd.log")"; fi
