@@ -1,12 +1,14 @@
 /*
  * conn.c - client connections: accepting, the bounded output buffer drained
- * as the socket allows, the pump that turns results and chunks into frames,
- * and the deadlines that keep a stuck peer from holding anything for long.
- * Reading and framing the input is conn_read.c.
+ * as the socket allows, the pump that lets the connection's producers
+ * (producer.h) turn their work into frames, and the deadlines that keep a
+ * stuck peer from holding anything for long.  Reading and framing the
+ * input is conn_read.c.  What handlers and producers may do with a
+ * connection (conn_services.h) is implemented here.
  *
  * Buffers.  Output is one contiguous buffer capped by out-buffer-bytes.
- * POINTS data is generated only into free space (points.c), never queued
- * ahead of the socket.
+ * Bulk data (POINTS chunks) is generated only into free space, never
+ * queued ahead of the socket.
  *
  * Closing.  A connection that gets a fatal ERROR (malformed frame,
  * timeouts) stops reading requests, flushes the ERROR, shuts down its
@@ -15,8 +17,9 @@
  * the peer lose the ERROR.  Freed memory is deferred to the end of the
  * loop round, since epoll may still hold events for it.
  *
- * This file must not interpret requests (dispatch.c does) or generate
- * points or run jobs (points.c, jobs.c).
+ * This file must not interpret requests (dispatch.c does) or know what a
+ * producer makes: it pumps, asks and releases them through their kind's
+ * table, and never names a kind.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -33,10 +36,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
@@ -238,7 +239,11 @@ static void drop_passed_fd(qmcd_conn *c)
 static void drop_work(qmcd_conn *c)
 {
     qmcd_producers_drop_all(c);
-    qmcd_jobs_drop_all(c);
+    for (unsigned i = 0; i < c->srv->n_modules; i++)
+        if (c->srv->modules[i]->conn_drop)
+            c->srv->modules[i]->conn_drop(c);
+    qmcd_pool_tenant_release(c->srv->pool, c->tenant);
+    c->tenant = NULL;
     qmcd_ring_free(c->ring);
     c->ring = NULL;
     drop_passed_fd(c);
@@ -290,7 +295,6 @@ void qmcd_conns_reap(qmcd_server *srv)
     while (srv->dead_conns) {
         qmcd_conn *c = srv->dead_conns;
         srv->dead_conns = c->next;
-        qmcd_auth_conn_free(c);
         free(c->in);
         free(c->out);
         set_out_alloc(c, 0);
@@ -593,21 +597,20 @@ void qmcd_conn_kick(qmcd_conn *c)
             qmcd_conn_parse(c);
         if (c->dead)
             return;
-        /* Produce every frame that fits (each pump adds at most one frame
-         * per job or stream and only when it fits), then write them with
+        /* Produce every frame that fits (each turn adds at most one frame,
+         * and only when it fits), then write them with
          * one send: a pipeline of small answers is one syscall, not two
          * per request.  PRODUCE_LIMIT keeps one connection from holding
          * the loop. */
         for (int k = 0; k < PRODUCE_LIMIT && !c->closing && !c->dead; k++) {
-            int p = qmcd_jobs_pump(c);
-            p |= qmcd_producers_turn(c);
+            int p = qmcd_producers_turn(c);
             if (!p)
                 break;
             produced = 1;
             /* Batching pays for small frames; a bulk chunk is a full send
              * by itself, and unsent bytes get moved when the next frame is
              * reserved - so stop once a batch is worth a send.  Ring
-             * chunks go out half a ring at a time (points.c): the client
+             * chunks go out half a ring at a time (ring.c): the client
              * reads one half while we fill the other. */
             if ((p & QMCD_TURN_FLUSH) || c->out_tail - c->out_head >= PRODUCE_BATCH_BYTES)
                 break;
@@ -630,7 +633,7 @@ void qmcd_conn_kick(qmcd_conn *c)
         return;
     }
     /* A peer that half-closed gets its answers, then we close. */
-    if (c->peer_eof && !c->closing && c->n_producers == 0 && c->n_jobs == 0 &&
+    if (c->peer_eof && !c->closing && c->n_producers == 0 &&
         c->out_tail == c->out_head) {
         qmcd_conn_close(c, "peer closed");
         return;
@@ -712,14 +715,14 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                            (unsigned long long)cfg->frame_timeout_ms);
             continue;
         }
-        if (c->n_producers == 0 && c->n_jobs == 0 && c->out_tail == c->out_head &&
+        if (c->n_producers == 0 && c->out_tail == c->out_head &&
             c->in_len == 0 && now - c->active_ms >= (int64_t)cfg->idle_timeout_ms) {
             srv->stats.conns_timed_out++;
             qmcd_conn_fail(c, 0, -ETIMEDOUT, "idle-timeout-ms: idle for %llu ms",
                            (unsigned long long)cfg->idle_timeout_ms);
             continue;
         }
-        qmcd_jobs_tick(c, now);
+        qmcd_producers_tick(c, now);
         if (!c->dead)
             qmcd_conn_kick(c);
     }
@@ -740,13 +743,13 @@ void qmcd_conns_close_idle(qmcd_server *srv)
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {
         next = c->next;
-        if (!c->closing && c->n_producers == 0 && c->n_jobs == 0 &&
+        if (!c->closing && c->n_producers == 0 &&
             c->out_tail == c->out_head)
             qmcd_conn_fail(c, 0, -ESHUTDOWN, "server shutting down");
     }
 }
 
-void qmcd_conns_close_streams(qmcd_server *srv, const char *why)
+void qmcd_conns_deadline(qmcd_server *srv, const char *why)
 {
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {

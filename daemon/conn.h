@@ -13,7 +13,6 @@
 #include "qmc/proto.h"
 #include "server.h"
 
-typedef struct qmcd_job qmcd_job;
 typedef struct qmcd_auth_conn qmcd_auth_conn;
 typedef struct qmcd_producer qmcd_producer;
 
@@ -69,8 +68,6 @@ struct qmcd_conn {
                                     (producer.h, producer.c) */
     unsigned n_producers;        /* on that list */
     unsigned n_bulk;             /* of them QMCD_PRODUCER_BULK */
-    qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
-    unsigned n_jobs;
     qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
     uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
     int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
@@ -87,8 +84,10 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 void qmcd_conns_tick(qmcd_server *srv, int64_t now_ms);
 void qmcd_conns_reap(qmcd_server *srv);
 void qmcd_conns_close_all(qmcd_server *srv, const char *why);
-/* Draining: closes connections with POINTS streams still going. */
-void qmcd_conns_close_streams(qmcd_server *srv, const char *why);
+/* Draining, at the deadline: tells every producer (a job cancels itself
+ * and answers ERROR), and closes the connections whose producers cannot
+ * end by themselves (streams), with why. */
+void qmcd_conns_deadline(qmcd_server *srv, const char *why);
 /* Draining: closes connections with nothing in flight. */
 void qmcd_conns_close_idle(qmcd_server *srv);
 

@@ -31,7 +31,6 @@
 #include <unistd.h>
 
 #include "conn.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
@@ -107,8 +106,7 @@ static void drain_step(qmcd_server *srv, int64_t now)
         if (srv->n_jobs)
             qmcd_warn("shutdown deadline: cancelling %llu job(s)",
                       (unsigned long long)srv->n_jobs);
-        qmcd_jobs_cancel_all(srv);
-        qmcd_conns_close_streams(srv, "server shutting down: stream cut");
+        qmcd_conns_deadline(srv, "server shutting down: stream cut");
     }
     if (now >= srv->drain_deadline_ms + 1000)
         qmcd_conns_close_all(srv, "server shutting down");
@@ -162,7 +160,7 @@ static void watchdog_init(qmcd_server *srv)
     qmcd_info("systemd watchdog: WATCHDOG=1 every %lld ms", (long long)srv->watchdog_ms);
 }
 
-int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
+int qmcd_loop_init(qmcd_server *srv)
 {
     int err;
     srv->sig.fd = srv->tick.fd = -1;
@@ -193,9 +191,7 @@ int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
     if ((err = qmcd_loop_add(srv, &srv->tick, EPOLLIN)) != 0)
         return err;
     watchdog_init(srv);
-    srv->done.fd = pool_eventfd;
-    srv->done.on_event = qmcd_jobs_on_done;
-    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
+    return 0;
 }
 
 void qmcd_loop_close(qmcd_server *srv)

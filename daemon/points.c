@@ -27,6 +27,10 @@
  * share them through a small cache keyed by spec, reference-counted;
  * at most CACHE_IDLE unused instances are kept.
  *
+ * On its connection a stream is a producer (producer.h) of the bulk kind;
+ * POINTS reaches it through the row of qmcd_points_module, and it reaches
+ * the connection only through conn_services.h.
+ *
  * This file must not read sockets or decide connection policy (conn.c).
  */
 #define _GNU_SOURCE
@@ -37,8 +41,7 @@
 
 #include "conn_services.h"
 #include "log.h"
-#include "points.h"
-#include "producer.h"
+#include "modules.h"
 #include "ring.h"
 
 #define CACHE_IDLE 8
@@ -73,14 +76,17 @@ typedef struct stream {
 
 static const qmcd_producer_kind stream_kind;
 
-int qmcd_seqcache_new(qmcd_seqcache **out)
+/* The cache lives with the server (the module's open and close). */
+static int points_open(qmcd_server *srv)
 {
-    *out = calloc(1, sizeof **out);
-    return *out ? 0 : -ENOMEM;
+    srv->seqs = calloc(1, sizeof *srv->seqs);
+    return srv->seqs ? 0 : -ENOMEM;
 }
 
-void qmcd_seqcache_free(qmcd_seqcache *cache)
+static void points_close(qmcd_server *srv)
 {
+    qmcd_seqcache *cache = srv->seqs;
+    srv->seqs = NULL;
     if (!cache)
         return;
     while (cache->entries) {
@@ -257,8 +263,11 @@ static int answer_now(qmcd_conn *c, uint64_t request_id, seq_entry *e,
     return 1;
 }
 
-void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+/* POINTS: validates the request and starts its stream (or answers a
+ * one-chunk request on the spot), or answers ERROR. */
+static void on_points(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
+    (void)fd;
     qmcd_server *srv = qmcd_conn_server(c);
     const qmc_msg_points *p = &m->u.points;
     const int shm = p->transport == QMC_TRANSPORT_SHM;
@@ -521,4 +530,14 @@ static const qmcd_producer_kind stream_kind = {
     .waiting = stream_waiting,
     .shutdown = stream_shutdown,
     .release = stream_release,
+};
+
+const qmcd_module qmcd_points_module = {
+    .name = "points",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_POINTS, QMCD_ROUTE_REQUEST | QMCD_ROUTE_STARTS, on_points},
+        {0, 0, NULL},
+    },
+    .open = points_open,
+    .close = points_close,
 };
