@@ -599,6 +599,11 @@ int qmcd_conn_is_unix(const qmcd_conn *c)
     return c->unix_socket;
 }
 
+unsigned qmcd_conn_version(const qmcd_conn *c)
+{
+    return c->version;
+}
+
 uint32_t qmcd_conn_client_max_frame(const qmcd_conn *c)
 {
     return c->client_max_frame;

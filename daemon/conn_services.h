@@ -75,6 +75,8 @@ uint64_t qmcd_conn_id(const qmcd_conn *c);
 int qmcd_conn_gone(const qmcd_conn *c);
 /* 1 on a Unix socket (descriptors may pass; the ring is possible). */
 int qmcd_conn_is_unix(const qmcd_conn *c);
+/* The protocol version HELLO_OK chose (0 before it). */
+unsigned qmcd_conn_version(const qmcd_conn *c);
 /* The largest frame payload the client accepts (its HELLO). */
 uint32_t qmcd_conn_client_max_frame(const qmcd_conn *c);
 /* The client's shared-memory ring (ring.h), or NULL before SHM_ATTACH. */

@@ -14,7 +14,8 @@
     X(qmcd_auth_module)   /* auth.c: HELLO, AUTH_RESPONSE (the handshake) */          \
     X(qmcd_shm_module)    /* shm.c: SHM_ATTACH, SHM_RELEASE (the client's ring) */    \
     X(qmcd_points_module) /* points.c: POINTS streams */                              \
-    X(qmcd_jobs_module)   /* jobs.c: INTEGRATE jobs, JOB_STATUS, JOB_CANCEL */
+    X(qmcd_jobs_module)   /* jobs.c: INTEGRATE jobs, JOB_STATUS, JOB_CANCEL */        \
+    X(qmcd_pixels_module) /* pixels.c: PIXELS tiles */
 
 #define QMCD__MODULE_DECLARE(m) extern const qmcd_module m;
 QMCD_MODULES(QMCD__MODULE_DECLARE)

@@ -55,6 +55,7 @@ struct qmcd_server {
     uint64_t n_jobs;           /* queued + running, all connections */
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
+    uint64_t pixel_table_bytes; /* pixels.c: sampler tables open tiles hold (max-seq-memory) */
     qmcd_stats stats;
     qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
