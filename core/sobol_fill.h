@@ -366,7 +366,7 @@ fill_packed(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
 static inline void fill_pointwise(const qmc_seq *seq, uint64_t start, uint64_t count,
                                   qmc_format fmt, void *out)
 {
-    const qmc_scramble scr = seq->spec.scramble;
+    const qmc_scramble scr = kernel_scramble(seq->spec.scramble);
     const uint32_t d = seq->spec.dims;
     for (uint32_t j0 = 0; j0 < d; j0 += CHUNK) {
         const uint32_t j1 = d - j0 > CHUNK ? j0 + CHUNK : d;
@@ -393,7 +393,7 @@ static inline void fill_pointwise(const qmc_seq *seq, uint64_t start, uint64_t c
 static inline void fill_packed_any(const qmc_seq *seq, uint64_t start, uint64_t count,
                                    qmc_format fmt, void *out)
 {
-    const qmc_scramble scr = seq->spec.scramble;
+    const qmc_scramble scr = kernel_scramble(seq->spec.scramble);
 #define QMC__SOBOL_CASE(F, S)                                                  \
     if (fmt == QMC_FORMAT_##F && scr == QMC_SCRAMBLE_##S) {                    \
         fill_packed(seq, start, count, QMC_FORMAT_##F, QMC_SCRAMBLE_##S, out); \

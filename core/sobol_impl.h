@@ -19,7 +19,8 @@
 enum { BITS = 32 };
 
 /* Table layout inside seq->tables:
- *   V[dims][32]    u32: direction numbers (bit-reversed for owen), for at()
+ *   V[dims][32]    u32: direction numbers (bit-reversed for owen and
+ *                  fast-owen), for at()
  *   W[33][dims]    u32: prefix XORs of V, transposed so a fill step reads
  *                  one contiguous row; row 32 is all zero (see fill_blocks)
  *   seed[dims+2]   u32: per-dimension scramble seeds, the shuffle seed, pad
@@ -45,9 +46,19 @@ typedef struct sobol_view {
     const uint32_t *packed; /* NULL unless has_packed() */
 } sobol_view;
 
+/*
+ * The kernels know one hash-based Owen scramble: fast-owen is owen's hash
+ * (the same lk_hash below) with other per-dimension seeds (seq_sobol.c),
+ * so everything past the seed table treats the two alike.
+ */
+static inline qmc_scramble kernel_scramble(qmc_scramble scr)
+{
+    return scr == QMC_SCRAMBLE_FAST_OWEN ? QMC_SCRAMBLE_OWEN : scr;
+}
+
 static inline int has_w64(const qmc_seq_spec *spec)
 {
-    return spec->scramble != QMC_SCRAMBLE_OWEN;
+    return kernel_scramble(spec->scramble) != QMC_SCRAMBLE_OWEN;
 }
 
 /*
