@@ -173,9 +173,7 @@ static void sobol_fill(const qmc_seq *seq, uint64_t start, uint64_t count,
      * them directly is cheaper than a batch fill's setup. */
     if (!(seq->spec.flags & QMC_SEQ_SHUFFLE) && count > 2) {
 #ifdef QMC__SOBOL_AVX2
-        /* Reads flags libgcc/compiler-rt set once at startup. */
-        if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-            __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq")) {
+        if (qmc__sobol_has_avx512()) {
             qmc__sobol_fill_avx512(seq, start, count, fmt, out);
             return;
         }
