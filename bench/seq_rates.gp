@@ -12,7 +12,7 @@ if (exists("svg")) {
 set datafile separator ','
 set logscale xy
 set xlabel 'dimensions'
-set ylabel 'million coordinates / s (f64, 512 KiB buffer)'
+set ylabel 'million coordinates per CPU second (f64, 512 KiB buffer)'
 set title 'Batch fill speed: qmcd vs GSL vs memset (same run)'
 set key outside right
 set xtics (2, 8, 32, 256)
