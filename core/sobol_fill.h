@@ -1,7 +1,7 @@
 /*
  * sobol_fill.h - the Sobol batch-fill kernels, as static inline functions
- * (private; included only by seq_sobol_fill.c and seq_sobol_avx2.c, which
- * compile them for different instruction sets).
+ * (private; included only by seq_sobol_fill.c, seq_sobol_avx2.c and
+ * seq_sobol_avx512.c, which compile them for different instruction sets).
  *
  * From i to i+1 exactly bits 0..c flip, c = ctz(i+1), so each dimension's
  * state takes one XOR with the prefix XOR W_c of its direction numbers:
@@ -43,11 +43,12 @@ static inline u32x8 load8(const uint32_t *p)
 #endif
 
 /* Bit reversal of each lane: bytes reversed by a constant shuffle, then the
- * bits within each byte - with GFNI by one affine transform over GF(2)
- * whose matrix is the bit-reversal permutation (bit i of each result byte
- * is bit 7 - i of the byte: matrix rows 0x01, 0x02, ..., 0x80), with AVX2
- * by looking up both nibbles in a 16-entry table (two vpshufb), otherwise
- * by three swap steps.  Same bits every way; the unit tests compare the
+ * bits within each byte - with GFNI (the AVX-512 build) by one affine
+ * transform over GF(2) whose matrix is the bit-reversal permutation
+ * (vgf2p8affineqb: result bit i is the parity of x AND matrix byte 7 - i,
+ * so the matrix 0x8040201008040201 makes it bit 7 - i of x), with AVX2 by
+ * looking up both nibbles in a 16-entry table (two vpshufb), otherwise by
+ * three swap steps.  Same bits every way; the unit tests compare the
  * builds. */
 static inline u32x8 reverse8(u32x8 x)
 {
