@@ -82,7 +82,7 @@ $(BUILD)/core/%.o: PRIVATE_INC := -Icore
 ifeq ($(shell uname -m),x86_64)
 $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
-                                                -mavx512bw -mavx512dq
+                                                -mavx512bw -mavx512dq -mavx512vbmi -mgfni
 $(BUILD)/core/pixel_kernel_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/pixel_kernel_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl -mavx512bw -mavx512dq
 endif

@@ -113,6 +113,7 @@ static qmc_seq_spec spec_of(const uint16_t *hr)
         [QMC_MODBUS_SCRAMBLE_OWEN] = QMC_SCRAMBLE_OWEN,
         [QMC_MODBUS_SCRAMBLE_SHIFT] = QMC_SCRAMBLE_SHIFT,
         [QMC_MODBUS_SCRAMBLE_FAURE] = QMC_SCRAMBLE_FAURE,
+        [QMC_MODBUS_SCRAMBLE_FAST_OWEN] = QMC_SCRAMBLE_FAST_OWEN,
     };
     qmc_seq_spec spec;
     memset(&spec, 0, sizeof spec); /* flags 0, set_size 0: infinite kinds */

@@ -79,7 +79,7 @@ enum {
 #define QMC_MODBUS_HOLDING_MAP(X)       \
     X(KIND, 0, 1, 3)                    \
     X(DIMS, 1, 1, 32)                   \
-    X(SCRAMBLE, 2, 0, 3)                \
+    X(SCRAMBLE, 2, 0, 4)                \
     X(SEED_HI, 3, 0, 0xFFFF)            \
     X(SEED_LO, 4, 0, 0xFFFF)            \
     X(FORMAT, 5, 0, 2)                  \
@@ -112,7 +112,8 @@ enum {
     QMC_MODBUS_SCRAMBLE_NONE = 0,
     QMC_MODBUS_SCRAMBLE_OWEN = 1,
     QMC_MODBUS_SCRAMBLE_SHIFT = 2,
-    QMC_MODBUS_SCRAMBLE_FAURE = 3
+    QMC_MODBUS_SCRAMBLE_FAURE = 3,
+    QMC_MODBUS_SCRAMBLE_FAST_OWEN = 4
 };
 enum { QMC_MODBUS_FORMAT_F32 = 0, QMC_MODBUS_FORMAT_U16 = 1, QMC_MODBUS_FORMAT_U32 = 2 };
 

@@ -177,6 +177,7 @@ for ep in "tcp:127.0.0.1:$P4" "tcp:::1:$P6" "rtu:$tmp/ttyc"; do
     point_case "$ep" $unit sobol 1 3 none 0 0 0 0 6 1
     point_case "$ep" $unit sobol 1 16 owen 1 123456 0 1 65535 2
     point_case "$ep" $unit halton 2 5 faure 3 99 2 0 4294967295 3
+    point_case "$ep" $unit sobol 1 6 fast-owen 4 4294967295 2 1 1000003 5
     point_case "$ep" $unit random 3 2 none 0 31337 1 0 77 4
 done
 # mbpoll as the RTU master too: FC16 then FC04, the same registers as TCP.

@@ -6,7 +6,8 @@
  * pieces are checked to lie inside the tile and to follow each other);
  * the chunks land where qmc_pixels_fill would write them; a server ERROR
  * comes back with its code and text; a server that chose protocol
- * version 3 is never sent a PIXELS (QMC_ENOTSUP, the connection usable).
+ * version 3 is never sent a PIXELS nor a fast-owen POINTS (QMC_ENOTSUP, the
+ * connection usable).
  *
  * The fake answers a piece with values that name their place, v = x <<
  * 20 | y << 12 | sample << 4 | dim, so the test's oracle is that formula
@@ -225,6 +226,14 @@ static unsigned run(unsigned version, uint64_t max_points)
         assert_int_equal(qmc_client_pixels(c, &spec, &TILE, QMC_FORMAT_U32, out, sizeof out),
                          QMC_ENOTSUP);
         assert_non_null(strstr(qmc_client_last_error(c), "PIXELS needs 4"));
+        /* fast-owen came with version 4 too: refused before it is sent,
+         * which would make an older server hang up (the PING below). */
+        const qmc_seq_spec fast_owen = {.kind = QMC_SEQ_SOBOL, .dims = 2,
+                                        .scramble = QMC_SCRAMBLE_FAST_OWEN, .seed = 7};
+        double pts[4];
+        assert_int_equal(qmc_client_points(c, &fast_owen, 0, 2, QMC_FORMAT_F64, pts,
+                                           sizeof pts), QMC_ENOTSUP);
+        assert_non_null(strstr(qmc_client_last_error(c), "needs protocol version 4"));
     } else {
         /* Too small a buffer: refused before anything is sent. */
         assert_int_equal(qmc_client_pixels(c, &spec, &TILE, QMC_FORMAT_U32, out,
