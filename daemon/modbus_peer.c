@@ -44,6 +44,13 @@ void qmcd__modbus_net_of(const qmcd_mb_peer *addr, qmcd_mb_peer *net)
         memcpy(net->addr, addr->addr, 4);
 }
 
+uint64_t qmcd__modbus_share(uint64_t setting, uint64_t total)
+{
+    if (setting)
+        return setting;
+    return total / 4 ? total / 4 : 1;
+}
+
 int qmcd__modbus_net_same(const qmcd_mb_peer *a, const qmcd_mb_peer *b)
 {
     return a->family == b->family && memcmp(a->addr, b->addr, sizeof a->addr) == 0;

@@ -100,7 +100,7 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
             held++;
         }
     }
-    if (held >= cfg->modbus_max_sessions_per_peer)
+    if (held >= qmcd__modbus_share(cfg->modbus_max_sessions_per_peer, cfg->modbus_max_sessions))
         return QMCD_MB_PEER_FULL;
     if (atomic_load_explicit(&mb->ctr.sessions, memory_order_relaxed) >=
         cfg->modbus_max_sessions)

@@ -77,6 +77,9 @@ void qmcd__modbus_count(qmcd_modbus *mb, const uint8_t *resp);
  * for logs ("loopback", "192.0.2.7", "2001:db8::/64"), and the connections
  * each peer holds (0, or -ENOMEM from add). */
 void qmcd__modbus_net_of(const qmcd_mb_peer *addr, qmcd_mb_peer *net);
+/* A peer's share of total: the setting, or with 0 (the default) a quarter
+ * of total, at least 1, so that lowering the total keeps room for others. */
+uint64_t qmcd__modbus_share(uint64_t setting, uint64_t total);
 int qmcd__modbus_net_same(const qmcd_mb_peer *a, const qmcd_mb_peer *b);
 void qmcd__modbus_net_name(const qmcd_mb_peer *net, char *out, size_t n);
 uint64_t qmcd__modbus_net_conns(const qmcd_modbus *mb, const qmcd_mb_peer *net);

@@ -232,6 +232,7 @@ check "the stalled frame is logged" $?
 # ---- 6. the limits, on a second daemon ---------------------------------------------
 "$QMCD" --foreground --listen "unix:$tmp/lim.sock" --modbus tcp:127.0.0.1:0 \
     --modbus-max-sessions 2 --modbus-max-connections 3 --write-timeout-ms 200 \
+    --modbus-max-connections-per-peer 3 --modbus-max-sessions-per-peer 2 \
     --ready-file "$tmp/lim.ready" \
     2> "$tmp/lim.log" &
 lim_pid=$!

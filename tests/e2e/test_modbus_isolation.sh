@@ -5,7 +5,8 @@
 #
 #   - at the defaults, 256 silent sockets from loopback (127.0.0.2..5, one
 #     peer) leave a newcomer served 12 times of 12 (before: refused 12 of
-#     12, modbus-max-connections was all theirs);
+#     12, modbus-max-connections was all theirs); the same with the
+#     issue's modbus-max-connections 50 and 50 sockets;
 #   - at the defaults, FC03 reads of 4 addresses x 256 unit ids make no
 #     bank, and a newcomer's FC17, FC43 and FC03 are answered (before: the
 #     reads made 1024 banks and the newcomer got exception 06);
@@ -95,6 +96,18 @@ if [ $netns = 1 ]; then
     if [ $? -eq 0 ]; then ok; else bad "silent: the refusal is not logged: $(tail -n 3 "$tmp/dflt.log")"; fi
 fi
 stop "$pid"
+fi
+
+# The issue's own numbers: modbus-max-connections 50 and 50 silent sockets.
+# The per-peer cap left at its default is a quarter of the total (12), so
+# lowering the total keeps the room for others.
+if [ $netns = 1 ] && start fifty --listen "unix:$tmp/fifty.sock" --modbus tcp:127.0.0.1:0 \
+    --modbus-max-connections 50; then
+    ports fifty
+    run_peer "$PEER" silent "$P4" "$tmp/fifty.sock" 50 192.0.2.1
+    n=$(stat_of "$tmp/fifty.sock" modbus_refused_connections_per_peer)
+    if [ "$n" = 38 ]; then ok; else bad "silent, 50 of 50: refused per peer '$n', want 38"; fi
+    stop "$pid"
 fi
 
 # ---- 2. the per-peer caps, peer by peer -------------------------------------------
