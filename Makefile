@@ -83,6 +83,8 @@ ifeq ($(shell uname -m),x86_64)
 $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
                                                 -mavx512bw -mavx512dq
+$(BUILD)/core/pixel_kernel_avx2.o: PRIVATE_INC := -Icore -mavx2
+$(BUILD)/core/pixel_kernel_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl -mavx512bw -mavx512dq
 endif
 $(BUILD)/daemon/modbus_rtu.o: PRIVATE_INC := $(MODBUS_CFLAGS)
 $(BUILD)/%.o: %.c
@@ -140,10 +142,10 @@ $(BUILD)/tests/test_pool: $(BUILD)/daemon/pool.o $(BUILD)/daemon/log.o
 $(BUILD)/tests/test_integrate_memory: UNIT_DAEMON_OBJ := \
   -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc,--wrap=free
 
-# The CLI's file pieces (pure readers, outfile.c) have a unit test that
-# links them beside the libraries.
+# The CLI's file pieces (pure readers, outfile.c, pathwalk.c) have a unit
+# test that links them beside the libraries.
 CLI_UNIT_SRC := client/cli/linebuf.c client/cli/csv_read.c client/cli/part_read.c \
-                client/cli/outfile.c client/cli/cli_common.c
+                client/cli/outfile.c client/cli/pathwalk.c client/cli/cli_common.c
 $(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
@@ -215,7 +217,7 @@ fuzz-lib:
 # the core; a target that drives code outside them lists those sources as
 # FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
 # compiles sources in itself pulls nothing twice.
-FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
+FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c daemon/regular_file.c
 FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
 FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
 build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
@@ -275,6 +277,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(MAKE) --no-print-directory bench-charts-seq
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
 	$(MAKE) --no-print-directory bench-charts-integrate
+	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
 
@@ -315,10 +318,11 @@ deps-demo:
 
 # ---- install -----------------------------------------------------------------
 # Everything an operator needs (docs/OPERATIONS.md): the programs, the
-# libraries (static, and shared with its soname and symlinks), headers and
-# qmcclient.pc, man pages, the systemd units with this PREFIX's paths, the
-# sysusers.d/tmpfiles.d snippets for the user qmcd, the client group qmc
-# and /run/qmcd, the example config (never overwritten), bash completion.
+# libraries (static, and shared with its soname and symlinks), headers,
+# qmcclient.pc and qmc.pc, man pages, the systemd units with this PREFIX's
+# paths, the sysusers.d/tmpfiles.d snippets for the user qmcd, the client
+# group qmc and /run/qmcd, the example config (never overwritten), bash
+# completion.
 # `make uninstall` removes the same files; a config that differs from the
 # shipped example is left in place (and said so).
 SYSCONFDIR  ?= /etc
@@ -350,6 +354,7 @@ install: all
 	ln -sf libqmcclient.so.$(SO_VERSION) $(D)$(LIBDIR)/$(SO_NAME)
 	ln -sf $(SO_NAME) $(D)$(LIBDIR)/libqmcclient.so
 	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmcclient.pc.in > $(D)$(LIBDIR)/pkgconfig/qmcclient.pc
+	sed -e 's|@PREFIX@|$(PREFIX)|g' client/qmc.pc.in > $(D)$(LIBDIR)/pkgconfig/qmc.pc
 	install -m 0644 include/qmc/*.h $(D)$(INCLUDEDIR)/qmc/
 	install -m 0644 man/qmc.1 $(D)$(MANDIR)/man1/
 	install -m 0644 man/qmcd.conf.5 $(D)$(MANDIR)/man5/
@@ -370,7 +375,7 @@ install: all
 uninstall:
 	rm -f $(D)$(BINDIR)/qmc $(D)$(SBINDIR)/qmcd
 	rm -f $(addprefix $(D)$(LIBDIR)/,$(notdir $(ALL_LIBS)) libqmcclient.so \
-	  $(SO_NAME) libqmcclient.so.$(SO_VERSION) pkgconfig/qmcclient.pc)
+	  $(SO_NAME) libqmcclient.so.$(SO_VERSION) pkgconfig/qmcclient.pc pkgconfig/qmc.pc)
 	rm -f $(addprefix $(D)$(INCLUDEDIR)/qmc/,$(notdir $(wildcard include/qmc/*.h)))
 	rm -f $(D)$(MANDIR)/man1/qmc.1 $(D)$(MANDIR)/man5/qmcd.conf.5 $(D)$(MANDIR)/man8/qmcd.8
 	rm -f $(addprefix $(D)$(DOCDIR)/,$(notdir $(INSTALL_DOCS)) qmcd-modbus-rtu.conf \

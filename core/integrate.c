@@ -82,6 +82,25 @@ static uint64_t stratified_count(uint64_t n, uint32_t d)
     }
 }
 
+/* A fixed n's cost (per_point evaluations a point) within the budget:
+ * QMC_EBUDGET otherwise, refused before anything is evaluated. */
+static int fixed_budget(const qmc_integrate_spec *spec, const qmc_sampling_spec *s,
+                        uint64_t per_point, qmc__msg *why)
+{
+    uint64_t cost = s->n * s->reps * per_point; /* n <= 2^32, reps <= 4096 */
+    if (s->n == 0 || s->n > QMC_SEQ_MAX_INDEX || s->reps == 0 ||
+        s->reps > QMC_SAMPLING_MAX_REPS || cost > spec->max_evals) {
+        qmc__msg_set(why, "", s->reps, " replicates x ");
+        qmc__msg_u64(why, s->n);
+        qmc__msg_str(why, " points = ");
+        qmc__msg_u64(why, cost);
+        qmc__msg_str(why, " evaluations exceed the budget of ");
+        qmc__msg_u64(why, spec->max_evals);
+        return QMC_EBUDGET;
+    }
+    return 0;
+}
+
 static int run_sampling(const qmc_integrate_spec *spec, qmc_sampling_spec s,
                         const qmc_integrand *f, const qmc_integrand *g, qmc_block_runner runner,
                         void *ctx, qmc_integrate_report *rep, qmc__msg *why)
@@ -101,18 +120,9 @@ static int run_sampling(const qmc_integrate_spec *spec, qmc_sampling_spec s,
             return err;
         s.n = n_final;
     } else {
-        const uint64_t per_point = g ? 2 : 1;
-        uint64_t cost = s.n * s.reps * per_point; /* n <= 2^32, reps <= 4096 */
-        if (s.n == 0 || s.n > QMC_SEQ_MAX_INDEX || s.reps == 0 ||
-            s.reps > QMC_SAMPLING_MAX_REPS || cost > spec->max_evals) {
-            qmc__msg_set(why, "", s.reps, " replicates x ");
-            qmc__msg_u64(why, s.n);
-            qmc__msg_str(why, " points = ");
-            qmc__msg_u64(why, cost);
-            qmc__msg_str(why, " evaluations exceed the budget of ");
-            qmc__msg_u64(why, spec->max_evals);
-            return QMC_EBUDGET;
-        }
+        err = fixed_budget(spec, &s, g ? 2 : 1, why);
+        if (err)
+            return err;
         qmc_sampling_job *job = NULL;
         err = qmc_sampling_job_new(&s, f, g, &job, why->buf, why->cap);
         if (err)
@@ -572,24 +582,46 @@ static int stratified_refuse(uint64_t n, uint32_t d, qmc__msg *why)
     return QMC_ECOUNT;
 }
 
+/* The sampling spec a sampling method s->method runs (before adaptive
+ * rounds change its n). */
+static int method_sampling(const qmc_integrate_spec *s, uint32_t dims, qmc_sampling_spec *q,
+                           qmc__msg *why)
+{
+    *q = s->sampling;
+    q->sampler = sampler_of(s->method);
+    if (q->n == 0 || q->n > QMC_SEQ_MAX_INDEX) {
+        qmc__msg_set(why, "n = ", q->n, " points is outside 1..2^32");
+        return QMC_ECOUNT;
+    }
+    if (q->sampler == QMC_SAMPLER_STRATIFIED) {
+        if (!s->n_given)
+            q->n = stratified_count(q->n, dims);
+        return stratified_refuse(q->n, dims, why);
+    }
+    return 0;
+}
+
+int qmc__fixed_sampling_spec(const qmc_integrate_spec *s, uint32_t dims, qmc_sampling_spec *q,
+                             char *why, size_t why_bytes)
+{
+    qmc__msg m;
+    qmc__msg_init(&m, why, why_bytes);
+    if (!is_sampling(s->method) || s->tol_abs > 0 || s->tol_rel > 0) {
+        qmc__msg_str(&m, "a part needs a sampling method (mc, stratified, lhs, qmc, rqmc) "
+                         "with a fixed n: no tolerance");
+        return QMC_EINVAL;
+    }
+    int err = method_sampling(s, dims, q, &m);
+    return err ? err : fixed_budget(s, q, 1, &m);
+}
+
 static int run_sampling_method(const qmc_integrate_spec *s, const qmc_integrand *f,
                                const qmc_integrand *g, qmc_block_runner runner,
                                void *runner_ctx, qmc_integrate_report *rep, qmc__msg *why)
 {
-    qmc_sampling_spec q = s->sampling;
-    q.sampler = sampler_of(s->method);
-    if (q.n == 0 || q.n > QMC_SEQ_MAX_INDEX) {
-        qmc__msg_set(why, "n = ", q.n, " points is outside 1..2^32");
-        return QMC_ECOUNT;
-    }
-    if (q.sampler == QMC_SAMPLER_STRATIFIED) {
-        if (!s->n_given)
-            q.n = stratified_count(q.n, f->dims);
-        int err = stratified_refuse(q.n, f->dims, why);
-        if (err)
-            return err;
-    }
-    return run_sampling(s, q, f, g, runner, runner_ctx, rep, why);
+    qmc_sampling_spec q;
+    int err = method_sampling(s, f->dims, &q, why);
+    return err ? err : run_sampling(s, q, f, g, runner, runner_ctx, rep, why);
 }
 
 static int run_rule(const qmc_integrate_spec *s, const qmc_integrand *f,

@@ -32,6 +32,14 @@ qmc_method qmc__auto_pick(const qmc_integrate_spec *spec, const qmc_integrand *f
 uint64_t qmc__auto_first_n(uint64_t budget, int control);
 uint64_t qmc__auto_min_first_n(void);
 
+/* The sampling spec a fixed-n sampling method runs, as qmc_integrate
+ * makes it (the sampler from spec->method, stratified's default k^d),
+ * within the budget: what a part of the job (--part, a part session) cuts
+ * into blocks.  QMC_EINVAL (with a reason) for other methods or a
+ * tolerance; QMC_ECOUNT, QMC_EBUDGET as qmc_integrate. */
+int qmc__fixed_sampling_spec(const qmc_integrate_spec *spec, uint32_t dims,
+                             qmc_sampling_spec *out, char *why, size_t why_bytes);
+
 /* The least budget for which auto trains a VEGAS map. */
 #define QMC__AUTO_MAP_MIN_BUDGET 10000u
 

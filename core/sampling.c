@@ -180,7 +180,7 @@ int qmc_sampling_job_new(const qmc_sampling_spec *spec, const qmc_integrand *f,
     job->blocks_per_rep = (spec->n + QMC_SAMPLING_BLOCK - 1) / QMC_SAMPLING_BLOCK;
     /* Points per integrand call: 256, fewer for very wide points so the
      * workspace stays near 2 MiB. */
-    job->chunk = f->dims <= 1024 ? CHUNK_MAX : (uint32_t)(262144 / f->dims) + 1;
+    job->chunk = qmc__sampling_chunk(f->dims);
     job->seqs = calloc(spec->reps, sizeof *job->seqs);
     if (!job->seqs)
         goto nomem;
@@ -217,10 +217,28 @@ uint64_t qmc_sampling_blocks(const qmc_sampling_job *job)
     return job->blocks_per_rep * job->spec.reps;
 }
 
+uint32_t qmc__sampling_chunk(uint32_t dims)
+{
+    return dims <= 1024 ? CHUNK_MAX : (uint32_t)(262144 / dims) + 1;
+}
+
+size_t qmc__sampling_workspace_bytes_for(uint32_t dims)
+{
+    const size_t chunk = qmc__sampling_chunk(dims);
+    /* points, then f values, then g values (room for them with or
+     * without a control variate) */
+    return (chunk * dims + 2 * chunk) * sizeof(double);
+}
+
 size_t qmc_sampling_workspace_bytes(const qmc_sampling_job *job)
 {
-    /* points, then f values, then g values */
-    return ((size_t)job->chunk * job->dims + 2 * (size_t)job->chunk) * sizeof(double);
+    return qmc__sampling_workspace_bytes_for(job->dims);
+}
+
+uint64_t qmc__sampling_block_points(const qmc_sampling_job *job, uint64_t block)
+{
+    const uint64_t first = block % job->blocks_per_rep * QMC_SAMPLING_BLOCK;
+    return job->spec.n - first < QMC_SAMPLING_BLOCK ? job->spec.n - first : QMC_SAMPLING_BLOCK;
 }
 
 enum { PROBES = 4 };
@@ -521,11 +539,16 @@ static size_t drop_nonfinite(double *fv, double *gv, size_t m)
     return kept;
 }
 
-int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
-                           size_t workspace_bytes, qmc_sampling_sums *out)
+/* Block `block`: its points in index order, chunk by chunk, evaluated and
+ * (out not NULL) summed into *out; with out NULL only evaluated, which
+ * calls the integrands exactly as the summing pass does. */
+static int block_pass(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                      size_t workspace_bytes, qmc_sampling_sums *out)
 {
-    memset(out, 0, sizeof *out);
-    out->block = block;
+    if (out) {
+        memset(out, 0, sizeof *out);
+        out->block = block;
+    }
     if (block >= qmc_sampling_blocks(job))
         return QMC_ERANGE;
     if (workspace_bytes < qmc_sampling_workspace_bytes(job))
@@ -534,8 +557,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
     const uint64_t b = block % job->blocks_per_rep;
     const uint64_t first = b * QMC_SAMPLING_BLOCK;
     const uint64_t offset = job->spec.split_net ? (uint64_t)r * job->spec.n : 0;
-    const uint64_t end = first + QMC_SAMPLING_BLOCK < job->spec.n ? first + QMC_SAMPLING_BLOCK
-                                                                   : job->spec.n;
+    const uint64_t end = first + qmc__sampling_block_points(job, block);
     const uint32_t d = job->dims;
     double *x = workspace;
     double *fv = x + (size_t)job->chunk * d;
@@ -553,7 +575,7 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
             for (size_t k = 0; k < m; k++)
                 gv[k] -= job->g->exact;
         }
-        if (add_chunk(out, &acc, fv, gv, m, 0))
+        if (!out || add_chunk(out, &acc, fv, gv, m, 0))
             continue;
         size_t kept = drop_nonfinite(fv, gv, m);
         out->count += m - kept;
@@ -561,11 +583,25 @@ int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *wo
         if (kept > 0)
             add_chunk(out, &acc, fv, gv, kept, 1);
     }
+    if (!out)
+        return 0;
     qmc__lane_fold(&acc.f, out->f);
     qmc__lane_fold(&acc.absf, out->absf);
     qmc__lane_fold(&acc.g, out->g);
     pool_to_top(&acc.top, out->top);
     return 0;
+}
+
+int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                           size_t workspace_bytes, qmc_sampling_sums *out)
+{
+    return block_pass(job, block, workspace, workspace_bytes, out);
+}
+
+int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                             size_t workspace_bytes)
+{
+    return block_pass(job, block, workspace, workspace_bytes, NULL);
 }
 
 const char *qmc_sampler_name(qmc_sampler s)

@@ -254,6 +254,36 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
     return 0;
 }
 
+int qmc__sampling_running(const qmc_sampling_job *job, const qmc_sampling_sums *sums,
+                          uint64_t done, qmc_result *res)
+{
+    /* The same estimator on a job cut down to the work complete: a copy
+     * of the job (finish reads only its spec, sizes and integrands) with
+     * fewer replicates, or one replicate of fewer points. */
+    qmc_sampling_job part = *job;
+    const qmc_sampling_spec *s = &job->spec;
+    const uint64_t bpr = job->blocks_per_rep;
+    if (done >= qmc_sampling_blocks(job))
+        return qmc_sampling_finish(job, sums, qmc_sampling_blocks(job), res, NULL) == 0;
+    if (job->g)
+        return 0;
+    if (s->reps >= 2) {
+        const uint64_t r = done / bpr;
+        if (r < 2)
+            return 0;
+        part.spec.reps = (uint32_t)r;
+        return qmc_sampling_finish(&part, sums, r * bpr, res, NULL) == 0;
+    }
+    const int finite_set = s->sampler == QMC_SAMPLER_STRATIFIED ||
+                           s->sampler == QMC_SAMPLER_LHS ||
+                           (s->sampler == QMC_SAMPLER_QMC && s->seq == QMC_SEQ_HAMMERSLEY);
+    if (done == 0 || finite_set)
+        return 0;
+    part.blocks_per_rep = done;
+    part.spec.n = done * QMC_SAMPLING_BLOCK; /* whole blocks: only the last is short */
+    return qmc_sampling_finish(&part, sums, done, res, NULL) == 0;
+}
+
 /* The serial runner: every block here, one workspace; the hook (NULL:
  * none) is polled before each block. */
 static int run_serial(const qmc_sampling_job *job, uint64_t first, uint64_t count,

@@ -16,10 +16,43 @@ struct qmc_sampling_job {
     qmc_seq **seqs;              /* one per replicate */
 };
 
+/* Points per integrand call of a job on dims dimensions (job->chunk), and
+ * the block workspace of such a job: what qmc_sampling_workspace_bytes
+ * returns, before the job exists (a session's memory bound). */
+uint32_t qmc__sampling_chunk(uint32_t dims);
+size_t qmc__sampling_workspace_bytes_for(uint32_t dims);
+
+/* The points of block `block` (at most QMC_SAMPLING_BLOCK; the last block
+ * of a replicate holds what is left of n). */
+uint64_t qmc__sampling_block_points(const qmc_sampling_job *job, uint64_t block);
+
+/* Calls the integrands on block `block`'s points exactly as
+ * qmc_sampling_run_block does - same chunks, same order - but sums
+ * nothing: a session's collect pass (session_run.c), which only needs the
+ * points.  Errors as qmc_sampling_run_block. */
+int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
+                             size_t workspace_bytes);
+
+/*
+ * The estimate from the first `done` blocks of a job still running
+ * (sums[i].block == i): the job's own estimator on the work complete so
+ * far.  With reps >= 2, the replicates complete (from 2 on); with one
+ * replicate of mc or an infinite qmc sequence, the points so far; none
+ * for a prefix of a finite set (stratified, lhs, hammersley), which is
+ * not such a set.  Returns 1 with *res filled, or 0 when there is none
+ * yet.  No control variate (the estimate is the plain mean).
+ */
+int qmc__sampling_running(const qmc_sampling_job *job, const qmc_sampling_sums *sums,
+                          uint64_t done, qmc_result *res);
+
 /* Welford/Chan combination of moments: b into a (see qmc_sampling_sums). */
 void qmc__moments_merge(qmc_sampling_sums *a, const qmc_sampling_sums *b);
 
-/* Runs blocks [first, first + count) with runner, or serially when NULL. */
+/* Runs blocks [first, first + count) with runner, or serially when NULL.
+ * Its callers (qmc_sampling_run, qmc_sampling_adaptive) keep one promise
+ * a session's runner relies on for its running estimate (session_run.c):
+ * out is &sums[first] of the job's whole array of block sums, and
+ * sums[0 .. first) are complete when it is called. */
 int qmc__sampling_run_blocks(const qmc_sampling_job *job, qmc_block_runner runner,
                              void *ctx, uint64_t first, uint64_t count,
                              qmc_sampling_sums *out);

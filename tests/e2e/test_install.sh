@@ -6,7 +6,8 @@
 # snippets, the example config, bash completion); the client example builds
 # against the installed pkg-config file (PKG_CONFIG_PATH and
 # PKG_CONFIG_SYSROOT_DIR), runs against the installed qmcd, and prints the
-# points `qmc points` prints; each man page renders with no warning; the
+# points `qmc points` prints; the in-process example builds against qmc.pc
+# (libqmc alone) and finds its callback and ask/tell answers equal; each man page renders with no warning; the
 # installed units verify; install never overwrites a config and uninstall
 # leaves a modified one.
 # Env: QMC, QMCD, BUILD.  Prints "N passed, M failed".
@@ -32,7 +33,8 @@ fi
 # ---- 1. the files ----------------------------------------------------------
 for f in bin/qmc sbin/qmcd; do check "[ -x '$R/$f' ]" "$f not installed executable"; done
 for f in lib/libqmc.a lib/libqmcproto.a lib/libqmcclient.a lib/libqmcclient.so.0.1.0 \
-    lib/pkgconfig/qmcclient.pc include/qmc/client.h include/qmc/seq.h \
+    lib/pkgconfig/qmcclient.pc lib/pkgconfig/qmc.pc include/qmc/client.h include/qmc/seq.h \
+    include/qmc/session.h \
     share/man/man1/qmc.1 share/man/man5/qmcd.conf.5 share/man/man8/qmcd.8 \
     lib/systemd/system/qmcd.service lib/systemd/system/qmcd.socket \
     lib/sysusers.d/qmcd.conf lib/tmpfiles.d/qmcd.conf \
@@ -48,7 +50,8 @@ check "[ '$soname' = libqmcclient.so.0 ]" "soname is '$soname'"
 check "cmp -s '$D/etc/qmcd/qmcd.conf' '$TOP/systemd/qmcd.conf'" "example config not installed"
 check "grep -q '^ExecStart=$P/sbin/qmcd --foreground --config /etc/qmcd/qmcd.conf' \
     '$R/lib/systemd/system/qmcd.service'" "installed unit's ExecStart= does not name $P/sbin/qmcd"
-check "! grep -q '@[A-Z]*@' '$R/lib/systemd/system/qmcd.service' '$R/lib/pkgconfig/qmcclient.pc'" \
+check "! grep -q '@[A-Z]*@' '$R/lib/systemd/system/qmcd.service' '$R/lib/pkgconfig/qmcclient.pc' \
+    '$R/lib/pkgconfig/qmc.pc'" \
     "a @VARIABLE@ left unsubstituted"
 check "'$R/sbin/qmcd' --check-config --config '$D/etc/qmcd/qmcd.conf' > /dev/null" \
     "the installed qmcd rejects the installed config"
@@ -82,7 +85,7 @@ check "[ -d '$tmp/sys/run/qmcd' ] && [ \"\$(stat -c %a '$tmp/sys/run/qmcd')\" = 
 
 # ---- 4. the client example against the installed pkg-config file -------------
 mkdir -p "$tmp/ex"
-cp "$TOP/client/examples/points_example.c" "$tmp/ex/"
+cp "$TOP/client/examples/points_example.c" "$TOP/client/examples/integrate_example.c" "$tmp/ex/"
 # Under make sanitize the installed libraries are instrumented: so is the
 # example then, or it could not load them.
 EXCC=cc
@@ -104,7 +107,18 @@ if $EXCC $EXFLAGS $(pkg-config --cflags qmcclient) -o "$tmp/ex/static_example" \
     "$tmp/ex/points_example.c" -L"$R/lib" -Wl,-Bstatic -lqmcclient -lqmcproto -lqmc \
     -Wl,-Bdynamic -lm -pthread $(pkg-config --libs libsodium) > "$tmp/ex-static.out" 2>&1; then ok
 else bad "static link against the installed archives: $(tail -n 3 "$tmp/ex-static.out")"; fi
+check "pkg-config --libs qmc | grep -q -- '-L$R/lib -lqmc'" "pkg-config --libs qmc: $(pkg-config --libs qmc 2>&1)"
 unset PKG_CONFIG_PATH PKG_CONFIG_SYSROOT_DIR
+# the in-process example: libqmc's callback and ask/tell APIs agree, and
+# the interval covers the closed form (it exits 1 otherwise)
+if "$tmp/ex/integrate_example" > "$tmp/integrate_example.txt" 2> "$tmp/integrate_example.err"; then
+    check "[ \"\$(grep -c 'agrees with the callback bit for bit: yes' '$tmp/integrate_example.txt')\" = 2 ]" \
+        "integrate_example: $(cat "$tmp/integrate_example.txt")"
+    check "[ \"\$(grep -c 'covers the true value: yes' '$tmp/integrate_example.txt')\" = 2 ]" \
+        "integrate_example: $(cat "$tmp/integrate_example.txt")"
+else
+    bad "integrate_example failed: $(cat "$tmp/integrate_example.txt" "$tmp/integrate_example.err")"
+fi
 ldd "$tmp/ex/static_example" | grep -q libqmcclient && bad "the static example loads libqmcclient.so"
 S="$tmp/qmcd.sock"
 "$R/sbin/qmcd" --foreground --threads 1 --listen "unix:$S" --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &

@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "qmc/integrate.h"
+#include "qmc/session.h"
 #include "qmc/testfn.h"
 
 void *__real_malloc(size_t n);
@@ -240,6 +241,90 @@ static void test_saturates(void **state)
     assert_true(qmc_integrate_memory_bytes(&spec, 8) > 0);
 }
 
+/* Sessions (qmc_session_memory_bytes, what a server reserves before
+ * opening one): from open to the last tell, the session, its fiber stack,
+ * its batch buffer and the integrator's own stay within the bound.  The
+ * caller's values live in a static buffer, outside the count. */
+static double session_vals[1u << 17];
+
+typedef struct session_case {
+    const char *integrand;
+    uint32_t dims;
+    const char *method;
+    double tol_rel;
+    uint64_t max_evals, max_batch;
+    uint32_t part_k, part_p;
+    double fill_ratio;           /* > 0: bound <= fill_ratio x peak */
+} session_case;
+
+static void run_session_case(const session_case *c)
+{
+    char why[512];
+    qmc_testfn *fn = NULL;
+    assert_int_equal(qmc_testfn_new(c->integrand, c->dims, NULL, 0, NULL, 0, &fn, why,
+                                    sizeof why), 0);
+    const qmc_integrand *f = qmc_testfn_integrand(fn);
+    qmc_session_spec ss;
+    qmc_session_spec_init(&ss);
+    ss.dims = c->dims;
+    ss.smoothness = f->smoothness;
+    assert_int_equal(qmc_method_parse(c->method, &ss.integrate.method), 0);
+    qmc_sampler sm;
+    if (qmc_sampler_parse(c->method, &sm) == 0)
+        qmc_sampling_spec_init(&ss.integrate.sampling, sm);
+    ss.integrate.tol_rel = c->tol_rel;
+    ss.integrate.max_evals = c->max_evals;
+    ss.max_batch = c->max_batch;
+    ss.part_k = c->part_k;
+    ss.part_p = c->part_p;
+    const uint64_t bound = qmc_session_memory_bytes(&ss);
+    size_t before = live_bytes;
+    peak_bytes = live_bytes;
+    qmc_session *s = NULL;
+    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    uint64_t evals = 0;
+    for (;;) {
+        qmc_session_batch b;
+        assert_int_equal(qmc_session_ask(s, &b), 0);
+        if (b.count == 0)
+            break;
+        assert_true(b.count <= sizeof session_vals / sizeof session_vals[0]);
+        f->eval(f->ctx, b.points, b.count, b.dims, session_vals);
+        assert_int_equal(qmc_session_tell(s, b.seq, session_vals, b.count, why, sizeof why), 0);
+        evals += b.count;
+    }
+    qmc_session_free(s);
+    size_t used = peak_bytes - before;
+    print_message("session %s %ud %s: %llu evals, peak %zu bytes, bound %llu\n", c->integrand,
+                  c->dims, c->method, (unsigned long long)evals, used,
+                  (unsigned long long)bound);
+    assert_int_equal(live_bytes, before); /* and everything freed */
+    assert_true(used <= bound + UNBOUNDED_ALLOWANCE);
+    if (c->fill_ratio > 0)
+        assert_true((double)bound <= c->fill_ratio * (double)used);
+    qmc_testfn_free(fn);
+}
+
+static void test_sessions(void **state)
+{
+    (void)state;
+    static const session_case cases[] = {
+        /* a fixed rqmc job: its 16 blocks make one full batch */
+        {"genz-oscillatory", 4, "rqmc", 0, 100000000, 0, 0, 0, 2},
+        {"genz-oscillatory", 4, "rqmc", 0, 100000000, 10000, 0, 0, 2},
+        /* adaptive, to the budget */
+        {"genz-discontinuous", 3, "rqmc", 1e-300, 1u << 22, 0, 0, 0, 0},
+        /* auto: a VEGAS pilot then rqmc; cubature's regions */
+        {"genz-oscillatory", 12, "auto", 1e-300, 3000000, 0, 0, 0, 0},
+        {"genz-gaussian", 3, "cubature", 1e-300, 200000, 0, 0, 0, 0},
+        {"exp", 1, "gauss-kronrod", 1e-12, 100000, 0, 0, 0, 0},
+        /* a part's sums */
+        {"genz-gaussian", 3, "rqmc", 0, 100000000, 0, 2, 3, 2},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
+        run_session_case(&cases[i]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -248,6 +333,7 @@ int main(void)
         cmocka_unit_test(test_auto_rqmc),
         cmocka_unit_test(test_auto_for_integrand),
         cmocka_unit_test(test_saturates),
+        cmocka_unit_test(test_sessions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,132 @@
+/*
+ * session_drive.c - running integration sessions in the unit tests (see
+ * session_drive.h): a built-in integrand answers every batch, and the
+ * session's report is compared with qmc_integrate's field by field.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hook.h"
+#include "session_drive.h"
+
+#define SAME(x, y) (memcmp(&(x), &(y), sizeof(x)) == 0)
+
+problem session_test_make(const char *name, uint32_t dims, const double *a, const double *u)
+{
+    problem p;
+    char why[256];
+    int err = qmc_testfn_new(name, dims, a, a ? dims : 0, u, u ? dims : 0, &p.fn, why,
+                             sizeof why);
+    if (err)
+        fail_msg("%s: %s", name, why);
+    p.f = qmc_testfn_integrand(p.fn);
+    return p;
+}
+
+/* ---- running a session ----------------------------------------------------- */
+
+void session_test_spec(qmc_session_spec *ss, const qmc_integrate_spec *is, const qmc_integrand *f)
+{
+    qmc_session_spec_init(ss);
+    ss->integrate = *is;
+    ss->dims = f->dims;
+    ss->smoothness = f->smoothness;
+    ss->has_exact = f->has_exact;
+    ss->exact = f->exact;
+    if (f->name)
+        snprintf(ss->name, sizeof ss->name, "%s", f->name);
+}
+
+
+/* Answers every batch with f until the session is done. */
+void session_test_drive(qmc_session *s, const qmc_integrand *f, outcome *o)
+{
+    double *vals = NULL;
+    size_t cap = 0;
+    o->batches = o->largest = 0;
+    uint64_t seq0 = 0;
+    for (;;) {
+        qmc_session_batch b;
+        assert_int_equal(qmc_session_ask(s, &b), 0);
+        if (b.count == 0) {
+            assert_int_not_equal(b.end, QMC_SESSION_RUNNING);
+            break;
+        }
+        assert_int_equal(b.end, QMC_SESSION_RUNNING);
+        if (o->batches == 0)
+            seq0 = b.seq;
+        assert_int_equal(b.seq, seq0 + o->batches); /* numbered in order */
+        assert_int_equal(b.dims, f->dims);
+        if (b.count > cap) {
+            cap = b.count;
+            vals = realloc(vals, cap * sizeof *vals);
+            assert_non_null(vals);
+        }
+        f->eval(f->ctx, b.points, b.count, b.dims, vals);
+        char why[256];
+        int err = qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why);
+        if (err)
+            fail_msg("tell: %s", why);
+        o->batches++;
+        o->largest = b.count > o->largest ? b.count : o->largest;
+    }
+    free(vals);
+    o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
+    qmc_session_status(s, &o->status);
+    qmc_session_batch done;
+    assert_int_equal(qmc_session_ask(s, &done), 0);
+    assert_int_equal(done.end, o->status.end);
+}
+
+outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f)
+{
+    outcome o;
+    memset(&o, 0, sizeof o);
+    qmc_session *s = NULL;
+    o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
+    if (o.err)
+        return o;
+    session_test_drive(s, f, &o);
+    qmc_session_free(s);
+    return o;
+}
+
+outcome session_test_via_integrate(const qmc_integrate_spec *is, const qmc_integrand *f)
+{
+    outcome o;
+    memset(&o, 0, sizeof o);
+    o.err = qmc_integrate(is, f, NULL, NULL, NULL, &o.rep, o.why, sizeof o.why);
+    return o;
+}
+
+
+/* Every field of the two reports, and the return value. */
+void session_test_assert_same(const outcome *a, const outcome *b, const char *what)
+{
+    if (a->err != b->err)
+        fail_msg("%s: err %d vs %d (%s / %s)", what, a->err, b->err, a->why, b->why);
+    if (!test_same_result(&a->rep.res, &b->rep.res))
+        fail_msg("%s: results differ: %.17g +- %.17g (%llu evals, flags %x) vs %.17g +- %.17g "
+                 "(%llu evals, flags %x)", what, a->rep.res.estimate, a->rep.res.error,
+                 (unsigned long long)a->rep.res.evals, a->rep.res.flags, b->rep.res.estimate,
+                 b->rep.res.error, (unsigned long long)b->rep.res.evals, b->rep.res.flags);
+    assert_true(SAME(a->rep.cv, b->rep.cv));
+    assert_int_equal(a->rep.method_used, b->rep.method_used);
+    const qmc_sampling_spec *x = &a->rep.sampling, *y = &b->rep.sampling;
+    assert_true(x->sampler == y->sampler && x->seq == y->seq && x->scramble == y->scramble &&
+                x->seq_flags == y->seq_flags && x->seed == y->seed && x->n == y->n &&
+                x->reps == y->reps && SAME(x->confidence, y->confidence) &&
+                x->split_net == y->split_net);
+    assert_string_equal(a->rep.detail, b->rep.detail);
+    assert_string_equal(a->rep.auto_reason, b->rep.auto_reason);
+    if (a->err)
+        assert_string_equal(a->why, b->why);
+}
+
