@@ -375,3 +375,11 @@ int qmc_modbus_handle(qmc_modbus_session *s, const qmc_modbus_env *env, const ui
     }
     return (int)w.off;
 }
+
+int qmc_modbus_request_writes(const uint8_t *req, size_t req_bytes)
+{
+    if (req_bytes == 0)
+        return 0;
+    return req[0] == QMC_MODBUS_FC_WRITE_SINGLE || req[0] == QMC_MODBUS_FC_WRITE_MULTIPLE ||
+           req[0] == QMC_MODBUS_FC_READ_WRITE_MULTIPLE;
+}

@@ -160,6 +160,17 @@ QMC_MUST_CHECK int qmc_modbus_handle(qmc_modbus_session *s, const qmc_modbus_env
                                      const uint8_t *req, size_t req_bytes, uint8_t *resp,
                                      size_t resp_bytes);
 
+/*
+ * Whether the request PDU req[0 .. req_bytes) may change a session: 1 for
+ * the writes (FC06, FC16, FC23), 0 for everything else (FC03, FC04, FC17,
+ * FC43, and codes answered with exception 01).  qmc_modbus_handle never
+ * changes a session for a request this returns 0 for, nor for one it
+ * answers with an exception, so a transport may answer such requests from
+ * one shared session that is never written (the TCP transport does, for
+ * clients that have no bank of their own).
+ */
+int qmc_modbus_request_writes(const uint8_t *req, size_t req_bytes);
+
 /* Names for logs and tests: "illegal data address", "" if unknown. */
 const char *qmc_modbus_exception_name(int code);
 const char *qmc_modbus_status_name(int code);

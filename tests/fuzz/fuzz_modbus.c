@@ -9,8 +9,12 @@
  * code (bit 7 set exactly for an exception, which is 2 bytes with a code
  * the handler sends, 01..04), a read's byte count matches its quantity,
  * both sessions gave the same bytes (the handler is a pure function of
- * the session and the request), and the holding registers still hold
- * values their ranges allow.  ASan and UBSan watch every access.
+ * the session and the request), the holding registers still hold values
+ * their ranges allow, and a request that qmc_modbus_request_writes calls
+ * read-only, or one answered with an exception, left the registers and
+ * the result block as they were (the TCP transport answers such requests
+ * from one shared bank, and drops a bank made for a refused write).
+ * ASan and UBSan watch every access.
  *
  * The Makefile's fuzz rule links build/fuzz/libqmc.a (the points come from
  * core), so the handler's sources are compiled in here with the fuzzer's
@@ -81,7 +85,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (n == 0 || n > QMC_MODBUS_MAX_PDU)
             break;
         uint8_t ra[QMC_MODBUS_MAX_PDU], rb[QMC_MODBUS_MAX_PDU];
+        uint16_t hr[QMC_MODBUS_HOLDING_COUNT], result[QMC_MODBUS_RESULT_REGS];
+        int had = a->has_result;
+        memcpy(hr, a->hr, sizeof hr);
+        memcpy(result, a->result, sizeof result);
         int x = qmc_modbus_handle(a, &env, data + off, n, ra, sizeof ra);
+        if ((!qmc_modbus_request_writes(data + off, n) || (x > 0 && (ra[0] & 0x80))) &&
+            (had != a->has_result || memcmp(hr, a->hr, sizeof hr) != 0 ||
+             memcmp(result, a->result, sizeof result) != 0))
+            __builtin_trap();
         int y = qmc_modbus_handle(b, &env, data + off, n, rb, sizeof rb);
         check_reply(data + off, n, ra, x);
         if (x != y || memcmp(ra, rb, (size_t)x) != 0)
