@@ -15,6 +15,9 @@
  * wedged in a handler is killed and restarted by systemd, which a ping
  * from a thread of its own would hide.
  *
+ * Registering a descriptor (qmcd_loop_add, _mod, _del) is watch.c's, so
+ * the files that register one do not depend on this one.
+ *
  * This file must not know the protocol: it dispatches events to watches
  * and decides when the process stops.
  */
@@ -31,58 +34,11 @@
 #include <unistd.h>
 
 #include "conn.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
-#include "main.h"
 #include "modbus_bridge.h"
-
-int64_t qmcd_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
-void qmcd_answered(qmcd_server *srv, int64_t t0_us)
-{
-    if (qmcd_stats_answered(&srv->stats, t0_us))
-        qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
-}
-
-int64_t qmcd_now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
-
-int qmcd_loop_add(qmcd_server *srv, qmcd_watch *w, uint32_t events)
-{
-    struct epoll_event ev = {.events = events, .data.ptr = w};
-    if (epoll_ctl(srv->epfd, EPOLL_CTL_ADD, w->fd, &ev) != 0)
-        return -errno;
-    w->events = events;
-    return 0;
-}
-
-int qmcd_loop_mod(qmcd_server *srv, qmcd_watch *w, uint32_t events)
-{
-    if (w->events == events)
-        return 0;
-    struct epoll_event ev = {.events = events, .data.ptr = w};
-    if (epoll_ctl(srv->epfd, EPOLL_CTL_MOD, w->fd, &ev) != 0)
-        return -errno;
-    w->events = events;
-    return 0;
-}
-
-void qmcd_loop_del(qmcd_server *srv, qmcd_watch *w)
-{
-    (void)epoll_ctl(srv->epfd, EPOLL_CTL_DEL, w->fd, NULL);
-    w->events = 0;
-}
+#include "reload.h"
 
 /* Stops accepting, drops the socket files, and gives running work until
  * shutdown-timeout-ms before it is cancelled. */
@@ -101,7 +57,7 @@ static void begin_drain(qmcd_server *srv, const char *why)
     snprintf(status, sizeof status, "STOPPING=1\nSTATUS=stopping (%s): %llu job(s) get %llu ms",
              why, (unsigned long long)srv->n_jobs,
              (unsigned long long)srv->cfg.shutdown_timeout_ms);
-    qmcd_main_notify(srv, status);
+    qmcd_notify(srv, status);
 }
 
 static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -110,7 +66,7 @@ static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     struct signalfd_siginfo si;
     while (read(w->fd, &si, sizeof si) == (ssize_t)sizeof si) {
         if (si.ssi_signo == SIGHUP)
-            qmcd_main_reload(srv);
+            qmcd_reload(srv);
         else if (si.ssi_signo == SIGTERM || si.ssi_signo == SIGINT)
             begin_drain(srv, si.ssi_signo == SIGTERM ? "SIGTERM" : "SIGINT");
     }
@@ -127,8 +83,7 @@ static void drain_step(qmcd_server *srv, int64_t now)
         if (srv->n_jobs)
             qmcd_warn("shutdown deadline: cancelling %llu job(s)",
                       (unsigned long long)srv->n_jobs);
-        qmcd_jobs_cancel_all(srv);
-        qmcd_conns_close_streams(srv, "server shutting down: stream cut");
+        qmcd_conns_deadline(srv, "server shutting down: stream cut");
     }
     if (now >= srv->drain_deadline_ms + 1000)
         qmcd_conns_close_all(srv, "server shutting down");
@@ -163,7 +118,7 @@ static void on_tick(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     if (srv->draining)
         drain_step(srv, now);
     if (srv->watchdog_ms && now >= srv->watchdog_next_ms) {
-        qmcd_main_notify(srv, "WATCHDOG=1");
+        qmcd_notify(srv, "WATCHDOG=1");
         srv->watchdog_next_ms = now + srv->watchdog_ms;
     }
 }
@@ -182,7 +137,7 @@ static void watchdog_init(qmcd_server *srv)
     qmcd_info("systemd watchdog: WATCHDOG=1 every %lld ms", (long long)srv->watchdog_ms);
 }
 
-int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
+int qmcd_loop_init(qmcd_server *srv)
 {
     int err;
     srv->sig.fd = srv->tick.fd = -1;
@@ -213,9 +168,7 @@ int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
     if ((err = qmcd_loop_add(srv, &srv->tick, EPOLLIN)) != 0)
         return err;
     watchdog_init(srv);
-    srv->done.fd = pool_eventfd;
-    srv->done.on_event = qmcd_jobs_on_done;
-    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
+    return 0;
 }
 
 void qmcd_loop_close(qmcd_server *srv)
