@@ -17,7 +17,9 @@
 #      it is neither run nor cancelled), also after every other task has
 #      finished; re-running that one task and pointing the merge at it
 #      (scontrol update ... dependency=afterok:RERUN) completes the merge,
-#      equal to one run.
+#      equal to one run;
+#   4. the part and pixel scripts it submits are the ones
+#      docs/OPERATIONS.md shows (but for qmc's path and the hold lines).
 # The job completion log (jobcomp/filetxt, in the scratch directory) is the
 # record of what ran: no accounting daemon is needed, so no sacct.
 # It prints the Slurm version it started and how many tasks completed.
@@ -52,7 +54,7 @@ done
 export SLURM_CONF="$tmp/slurm.conf"
 
 # ---- the cluster --------------------------------------------------------------
-MUNGED= SLURMCTLD= SLURMD=
+MUNGED='' SLURMCTLD='' SLURMD=''
 # Jobs first (their slurmstepd processes report to slurmctld, so it must
 # outlive them), then slurmd, slurmctld and munged, each by PID.
 stop_cluster() {
@@ -125,11 +127,14 @@ host=$(uname -n | cut -d. -f1)
 mkdir -p "$tmp/state" "$tmp/spool"
 : > "$tmp/plugstack.conf"
 # slurmctld accepts only the host SlurmctldHost names; the node is a name
-# of ours on 127.0.0.1.  CPUs=16 (config_overrides: whatever the machine
-# has) lets the 8 tasks of a case, 2 CPUs each, run at once, and
-# batch_sched_delay=0 starts jobs as they come instead of in rounds 3 s
-# apart (the default, for clusters that take thousands of jobs a second).  No cgroups, no systemd:
-# linuxproc tracks a job's processes by parentage, task/none binds nothing.
+# of ours on 127.0.0.1.  The daemons run as the test's user (root or not:
+# jobs then run as that user too).  CPUs=16 (config_overrides: whatever
+# the machine has) lets the 8 tasks of a case, 2 CPUs each, run at once,
+# and batch_sched_delay=0 starts jobs as they come instead of in rounds
+# 3 s apart (the default, for clusters that take thousands of jobs a
+# second).  No cgroups, no systemd: linuxproc tracks a job's processes by
+# parentage, task/none binds nothing.  MailProg is never called (no job
+# asks for mail); naming a program that exists keeps slurmctld quiet.
 cat > "$SLURM_CONF" <<EOF
 ClusterName=qmctest
 SlurmctldHost=$host(127.0.0.1)
@@ -173,7 +178,9 @@ poll 30 'node_idle || ! kill -0 $SLURMCTLD 2>/dev/null || ! kill -0 $SLURMD 2>/d
 node_idle || give_up "the Slurm node did not come up (slurmctld pid $SLURMCTLD, slurmd pid $SLURMD)"
 ctld_version=$(scontrol show config | sed -n 's/^SLURM_VERSION *= *//p')
 node_version=$(sinfo -h -n qmcnode -o %v)
-echo "slurm: slurmctld $ctld_version and slurmd $node_version up on 127.0.0.1:$CTLD_PORT,$SLURMD_PORT ($(munged --version 2>&1 | head -n 1 | cut -d' ' -f1))"
+munge_version=$(munged --version 2>&1 | head -n 1 | cut -d' ' -f1)
+echo "slurm: slurmctld $ctld_version and slurmd $node_version up on" \
+     "127.0.0.1:$CTLD_PORT,$SLURMD_PORT ($munge_version)"
 
 # submit DIR SBATCH-ARGS...: sbatch in DIR (as docs/OPERATIONS.md runs it
 # in the job's directory); prints the job id.
@@ -195,8 +202,9 @@ strip() { sed 's/"seconds":[^,]*,//' "$1"; }
 # ---- 1. integration parts: write the scripts, submit everything ----------------
 # The part script is docs/OPERATIONS.md's; P is written into it, since a
 # re-run of one index (sbatch --array=K) has SLURM_ARRAY_TASK_COUNT=1.
-# The hold file is the test's one addition: a task whose index has one
-# waits there (for at most 2 minutes) until the test kills it.
+# The hold file is the test's one addition: the task of part K, while a
+# file hold-K exists, says it runs (running-K) and waits there, for at
+# most 2 minutes, until the test kills it.
 part_script() {
     cat <<EOF
 #!/bin/sh
@@ -232,13 +240,14 @@ done
 for c in $cases killed; do
     arr=$(submit "$tmp/$c" part.sbatch)
     mrg=$(submit "$tmp/$c" --dependency=afterok:"$arr" --output=log/merge.out --wrap "$merge_cmd")
-    [ -n "$arr" ] && [ -n "$mrg" ] || give_up "$c: sbatch gave no job ids"
+    if [ -z "$arr" ] || [ -z "$mrg" ]; then give_up "$c: sbatch gave no job ids"; fi
     eval "arr_$c=\$arr mrg_$c=\$mrg"
 done
 
 # ---- 2. pixels: 4 tasks, samples k*N/4 .. (k+1)*N/4 - 1 of each pixel ---------
 PIX_SPP=64 PIX_K=4 PIX_DIMS=6 PIX_W=16 PIX_H=8
-pix_args="--sampler zsobol --resolution 64,48 --spp $PIX_SPP --seed 5 --tile 8,4,$PIX_W,$PIX_H --dims $PIX_DIMS --format u32"
+pix_args="--sampler zsobol --resolution 64,48 --spp $PIX_SPP --seed 5"
+pix_args="$pix_args --tile 8,4,$PIX_W,$PIX_H --dims $PIX_DIMS --format u32"
 if "$QMC" help pixels > /dev/null 2>&1; then
     mkdir -p "$tmp/pixels/log"
     cat > "$tmp/pixels/pixels.sbatch" <<EOF
@@ -255,6 +264,30 @@ EOF
 else
     arr_pixels=
     echo "skip: the pixels case (this qmc has no 'qmc pixels')"
+fi
+
+# The scripts are the ones docs/OPERATIONS.md shows, but for the path of
+# qmc and the hold lines: doc_script NAME FILE compares the doc's script
+# with that job name (exactly one) and FILE.
+doc_script() {
+    "$PY" - "$HERE/../../docs/OPERATIONS.md" "$1" "$2" "$QMC" <<'PYEOF'
+import re, sys
+doc, name, path, qmc = sys.argv[1:5]
+pat = r"```sh\n(#!/bin/sh\n#SBATCH --job-name=%s\n.*?)```" % re.escape(name)
+shown = re.findall(pat, open(doc).read(), re.S)
+mine = open(path).read().replace('"%s"' % qmc, "qmc")
+mine = re.sub(r"if \[ -e hold-\$K \]; then\n.*?\nfi\n", "", mine, flags=re.S)
+if len(shown) != 1:
+    sys.exit("%d scripts named %s in the doc" % (len(shown), name))
+if shown[0] != mine:
+    sys.exit("the doc shows\n%sthe test runs\n%s" % (shown[0], mine))
+PYEOF
+}
+if out=$(doc_script qmc-part "$tmp/rqmc/part.sbatch" 2>&1); then ok
+else bad "part.sbatch is not docs/OPERATIONS.md's: $out"; fi
+if [ -n "$arr_pixels" ]; then
+    if out=$(doc_script qmc-pixels "$tmp/pixels/pixels.sbatch" 2>&1); then ok
+    else bad "pixels.sbatch is not docs/OPERATIONS.md's: $out"; fi
 fi
 
 # The single runs the merges must equal, in-process, while Slurm works.
@@ -349,5 +382,8 @@ fi
 
 total=$(grep -c ' JobState=COMPLETED .* ArrayTaskId=[0-9]* ' "$tmp/jobcomp.txt")
 merges=$(grep ' JobState=COMPLETED ' "$tmp/jobcomp.txt" | grep -vc ' ArrayJobId=')
-echo "slurm $ctld_version: $total array tasks and $merges merge jobs completed, $(grep -c ' JobState=CANCELLED ' "$tmp/jobcomp.txt") cancelled, $(grep -c ' JobState=FAILED ' "$tmp/jobcomp.txt") failed"
+cancelled=$(grep -c ' JobState=CANCELLED ' "$tmp/jobcomp.txt")
+failed=$(grep -c ' JobState=FAILED ' "$tmp/jobcomp.txt")
+echo "slurm $ctld_version: $total array tasks and $merges merge jobs completed," \
+     "$cancelled cancelled, $failed failed"
 finish
