@@ -142,10 +142,10 @@ $(BUILD)/tests/test_pool: $(BUILD)/daemon/pool.o $(BUILD)/daemon/log.o
 $(BUILD)/tests/test_integrate_memory: UNIT_DAEMON_OBJ := \
   -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=aligned_alloc,--wrap=free
 
-# The CLI's file pieces (pure readers, outfile.c) have a unit test that
-# links them beside the libraries.
+# The CLI's file pieces (pure readers, outfile.c, pathwalk.c) have a unit
+# test that links them beside the libraries.
 CLI_UNIT_SRC := client/cli/linebuf.c client/cli/csv_read.c client/cli/part_read.c \
-                client/cli/outfile.c client/cli/cli_common.c
+                client/cli/outfile.c client/cli/pathwalk.c client/cli/cli_common.c
 $(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
@@ -217,7 +217,7 @@ fuzz-lib:
 # the core; a target that drives code outside them lists those sources as
 # FUZZ_SRCS_<name>, compiled into it with its flags.  A target that
 # compiles sources in itself pulls nothing twice.
-FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c
+FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c daemon/regular_file.c
 FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
 FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
 build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)

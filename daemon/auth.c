@@ -44,6 +44,7 @@
 #include "conn.h"
 #include "log.h"
 #include "modules.h"
+#include "regular_file.h"
 #include "qmc/auth.h"
 
 /* Addresses whose failures are remembered at once. */
@@ -106,12 +107,11 @@ int qmcd_auth_load_key(qmcd_auth *a, const qmcd_config *cfg, char *why, size_t n
         return 0;
     }
     /* O_NOFOLLOW is not used: a key kept through a symlink is fine, and
-     * fstat below checks the file actually opened. */
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY);
-    if (fd < 0) {
-        snprintf(why, n, "auth-key %s: cannot open: %s", path, strerror(errno));
+     * fstat below checks the file actually opened.  A FIFO is refused
+     * without waiting for a writer (regular_file.h). */
+    int fd = qmcd_open_regular("auth-key", path, why, n);
+    if (fd < 0)
         return -1;
-    }
     struct stat st;
     const char *bad = NULL;
     uint8_t key[QMC_AUTH_KEY_MAX_BYTES + 1];

@@ -17,10 +17,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "config.h"
 #include "log.h"
 #include "modbus_spec.h"
+#include "regular_file.h"
 #include "qmc/seq.h"
 
 typedef struct num_key {
@@ -318,12 +320,18 @@ int qmcd_config_parse(const char *name, const char *text, size_t len, qmcd_confi
     return 0;
 }
 
-/* Reads the whole file (at most QMCD_CONFIG_MAX_BYTES) and parses it. */
+/* Reads the whole file (at most QMCD_CONFIG_MAX_BYTES) and parses it.
+ * Only a regular file is read: a FIFO would hang start-up or, on SIGHUP,
+ * the event loop (regular_file.h). */
 static int load_file(const char *path, qmcd_config *c, char *why, size_t n)
 {
-    FILE *f = fopen(path, "r");
+    int fd = qmcd_open_regular("", path, why, n);
+    if (fd < 0)
+        return -1;
+    FILE *f = fdopen(fd, "r");
     if (!f) {
         snprintf(why, n, "%s: cannot open: %s", path, strerror(errno));
+        close(fd);
         return -1;
     }
     char *text = malloc(QMCD_CONFIG_MAX_BYTES + 1);

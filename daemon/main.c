@@ -36,14 +36,33 @@
 #include "reload.h"
 
 /* Writes the bound addresses, one per line, to path via a rename so that a
- * reader never sees a half-written file. */
+ * reader never sees a half-written file.  The temporary file is made by
+ * mkstemp (O_EXCL, a random name): a fixed "PATH.tmp" opened with fopen
+ * followed whatever link another user had planted under that name when
+ * the ready file sits in a shared directory such as /tmp, and qmcd (often
+ * root) wrote through it (issue 22, finding 6's daemon side). */
 static int write_ready_file(const qmcd_server *srv, const char *path)
 {
     char tmp[QMCD_PATH_BYTES + 8];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    FILE *f = fopen(tmp, "w");
-    if (!f)
+    int len = snprintf(tmp, sizeof tmp, "%s.XXXXXX", path);
+    if (len < 0 || (size_t)len >= sizeof tmp) {
+        errno = ENAMETOOLONG;
         return -1;
+    }
+    int fd = mkstemp(tmp);
+    if (fd < 0)
+        return -1;
+    /* mkstemp makes it 0600; the ready file keeps what fopen gave it. */
+    mode_t mask = umask(0);
+    umask(mask);
+    FILE *f = fchmod(fd, 0666 & ~mask) == 0 ? fdopen(fd, "w") : NULL;
+    if (!f) {
+        int err = errno;
+        close(fd);
+        unlink(tmp);
+        errno = err;
+        return -1;
+    }
     fprintf(f, "pid %ld\n", (long)getpid());
     for (unsigned i = 0; i < srv->n_listeners; i++)
         fprintf(f, "%s\n", srv->listeners[i].name);

@@ -2,11 +2,13 @@
  * outfile.c - output files that never clobber what they should not: the
  * checks, the temporary file beside the target, fsync then rename, and the
  * signal handler that removes temporary files (the rules are in
- * outfile.h).  Must not: replace a device, FIFO or read-only file, leave a
- * temporary file behind, or print more than one line per error.
+ * outfile.h).  Must not: replace a device, FIFO or read-only file, follow
+ * a link pathwalk.c refuses, touch the target by name once the walk has
+ * found its directory, leave a temporary file behind, or print more than
+ * one line per error.
  */
-/* realpath(3) and S_ISVTX are XSI. */
-#define _XOPEN_SOURCE 700
+/* realpath(3) and S_ISVTX. */
+#define _GNU_SOURCE
 #include "outfile.h"
 
 #include <errno.h>
@@ -19,26 +21,29 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "pathwalk.h"
 
 /* ---- the signal cleanup table ----------------------------------------------
  * The one piece of global state in the CLI, because a signal handler can
  * reach nothing else.  A slot holds the name of a temporary file while it
- * exists; the handler unlinks each and lets the signal kill us.  Slots are
- * filled and emptied with these signals blocked, so the handler never sees
- * a half-made entry, and the strings stay allocated while registered. */
+ * exists, and the directory descriptor it is in; the handler unlinks each
+ * and lets the signal kill us.  Slots are filled and emptied with these
+ * signals blocked, so the handler never sees a half-made entry, and the
+ * strings and descriptors stay valid while registered. */
 static char *volatile cleanup_paths[CLI_OUTFILE_MAX];
+static volatile int cleanup_dirs[CLI_OUTFILE_MAX];
 static volatile sig_atomic_t cleanup_installed;
 static const int cleanup_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 #define N_CLEANUP_SIGNALS (sizeof cleanup_signals / sizeof cleanup_signals[0])
 
 static void on_fatal_signal(int sig)
 {
-    /* unlink, sigaction and raise are async-signal-safe (POSIX.1-2008
+    /* unlinkat, sigaction and raise are async-signal-safe (POSIX.1-2008
      * 2.4.3); nothing else is called here. */
     for (int i = 0; i < CLI_OUTFILE_MAX; i++) {
         char *p = cleanup_paths[i];
         if (p)
-            unlink(p);
+            unlinkat(cleanup_dirs[i], p, 0);
     }
     struct sigaction dfl;
     memset(&dfl, 0, sizeof dfl);
@@ -109,14 +114,15 @@ static char *dir_of(const char *path)
     return strndup(path, (size_t)(slash - path));
 }
 
-/* May the regular file at path (stat st) be replaced?  0, or an error
- * printed and CLI_EXIT_FAIL. */
-static int check_replaceable(const cli_outfile *o, const char *path, const struct stat *st)
+/* May the regular file o->name in o->dirfd (stat st) be replaced?  0, or
+ * an error printed and CLI_EXIT_FAIL. */
+static int check_replaceable(const cli_outfile *o, const struct stat *st)
 {
+    const char *path = o->target;
     if ((st->st_mode & 0222) == 0)
         return cli_error("%s: '%s' is read-only (mode %04o): refusing to replace it",
                          o->what, path, (unsigned)(st->st_mode & 07777));
-    if (faccessat(AT_FDCWD, path, W_OK, AT_EACCESS) != 0)
+    if (faccessat(o->dirfd, o->name, W_OK, AT_EACCESS) != 0)
         return cli_error("%s: '%s' is not writable by you: %s", o->what, path,
                          strerror(errno));
     if (st->st_uid == geteuid())
@@ -125,97 +131,138 @@ static int check_replaceable(const cli_outfile *o, const char *path, const struc
         return cli_error("%s: '%s' belongs to uid %u: replacing it would take it from "
                          "its owner (write to a new name)", o->what, path,
                          (unsigned)st->st_uid);
-    char *dir = dir_of(path);
     struct stat ds;
-    int sticky = dir && stat(dir, &ds) == 0 && (ds.st_mode & S_ISVTX);
-    int rc = 0;
-    if (sticky)
-        rc = cli_error("%s: '%s' belongs to uid %u in the sticky directory '%s': "
-                       "refusing to replace it", o->what, path, (unsigned)st->st_uid, dir);
-    free(dir);
-    return rc;
+    if (fstat(o->dirfd, &ds) == 0 && (ds.st_mode & S_ISVTX)) {
+        char *dir = dir_of(path);
+        cli_error("%s: '%s' belongs to uid %u in the sticky directory '%s': "
+                  "refusing to replace it", o->what, path, (unsigned)st->st_uid,
+                  dir ? dir : "?");
+        free(dir);
+        return CLI_EXIT_FAIL;
+    }
+    return 0;
 }
 
 /* A device or FIFO: opened and written in place. */
-static int open_in_place(cli_outfile *o, const char *path, const struct stat *st)
+static int open_in_place(cli_outfile *o, const struct stat *st)
 {
+    const char *path = o->target;
     if (S_ISDIR(st->st_mode))
         return cli_error("%s: '%s' is a directory", o->what, path);
     if (!S_ISCHR(st->st_mode) && !S_ISFIFO(st->st_mode))
         return cli_error("%s: '%s' is not a regular file, a character device or a FIFO",
                          o->what, path);
-    int fd = open(path, O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    /* O_NOFOLLOW: the walk found no link here; one put here since is not
+     * followed.  (Blocking on a FIFO until a reader comes is the point.) */
+    int fd = openat(o->dirfd, o->name, O_WRONLY | O_NOCTTY | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0)
         return cli_error("%s: cannot open '%s': %s", o->what, path, strerror(errno));
-    o->target = strdup(path);
-    o->f = o->target ? fdopen(fd, "wb") : NULL;
+    struct stat now;
+    if (fstat(fd, &now) != 0 || (now.st_mode & S_IFMT) != (st->st_mode & S_IFMT)) {
+        close(fd);
+        return cli_error("%s: '%s' changed while it was opened", o->what, path);
+    }
+    o->f = fdopen(fd, "wb");
     if (!o->f) {
         close(fd);
-        free(o->target);
-        o->target = NULL;
         return cli_error("%s: out of memory", o->what);
     }
     return 0;
+}
+
+/* Creates a new, empty file "NAME.tmp.XXXXXX" (six random letters, the
+ * mkstemp(3) pattern) beside the target with mode 0600, its name in
+ * *name.  O_EXCL and O_NOFOLLOW: nothing already there - a link another
+ * user guessed the name for - is ever opened.  fd or -errno. */
+static int create_temp(const cli_outfile *o, char **name)
+{
+    size_t len = strlen(o->name);
+    char *t = malloc(len + 12);
+    if (!t)
+        return -ENOMEM;
+    memcpy(t, o->name, len);
+    memcpy(t + len, ".tmp.", 5);
+    t[len + 11] = '\0';
+    for (int attempt = 0; attempt < 100; attempt++) {
+        cli_pathwalk_random(t + len + 5, 6);
+        int fd = openat(o->dirfd, t, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC,
+                        0600);
+        if (fd >= 0) {
+            *name = t;
+            return fd;
+        }
+        if (errno != EEXIST) {
+            int err = errno;
+            free(t);
+            return -err;
+        }
+    }
+    free(t);
+    return -EEXIST;
 }
 
 int cli_outfile_open(cli_outfile *o, const char *path, const char *what)
 {
     memset(o, 0, sizeof *o);
     o->slot = -1;
+    o->dirfd = -1;
     o->what = what;
     if (!path || !path[0])
         return cli_error("%s: the file name is empty", what);
-    struct stat st;
+    cli_pathwalk w;
+    if (cli_pathwalk_open(&w, path, what) != 0)
+        return CLI_EXIT_FAIL;
+    /* The walk's directory and names are ours now. */
+    o->dirfd = w.dirfd;
+    o->name = w.name;
+    o->target = w.shown;
+    w.name = w.shown = NULL;
+    const struct stat st = w.st;
+    const int exists = w.exists;
     mode_t mode;
-    int exists = stat(path, &st) == 0;
-    if (!exists && errno != ENOENT)
-        return cli_error("%s: cannot use '%s': %s", what, path, strerror(errno));
-    if (exists && !S_ISREG(st.st_mode))
-        return open_in_place(o, path, &st);
+    if (!exists && w.through_link) {
+        cli_outfile_abort(o);
+        return cli_error("%s: '%s' is a symbolic link to a missing file", what, path);
+    }
+    if (!exists && w.dir_only) {
+        cli_outfile_abort(o);
+        return cli_error("%s: '%s' ends in '/', so it names a directory, not a file", what,
+                         path);
+    }
+    if (exists && !S_ISREG(st.st_mode)) {
+        if (open_in_place(o, &st) != 0) {
+            cli_outfile_abort(o);
+            return CLI_EXIT_FAIL;
+        }
+        return 0;
+    }
     if (exists) {
-        /* Replace the file a symbolic link names, keeping the link. */
-        o->target = realpath(path, NULL);
-        if (!o->target)
-            return cli_error("%s: cannot resolve '%s': %s", what, path, strerror(errno));
-        if (check_replaceable(o, o->target, &st) != 0) {
+        /* A link was followed to get here: the file it names is replaced,
+         * the link kept. */
+        if (check_replaceable(o, &st) != 0) {
             cli_outfile_abort(o);
             return CLI_EXIT_FAIL;
         }
         mode = st.st_mode & 0777;
     } else {
-        struct stat ls;
-        if (lstat(path, &ls) == 0)
-            return cli_error("%s: '%s' is a symbolic link to a missing file", what, path);
-        o->target = strdup(path);
-        if (!o->target)
-            return cli_error("%s: out of memory", what);
         mode = new_file_mode();
     }
-    size_t len = strlen(o->target);
-    o->tmp = malloc(len + 12);
-    if (!o->tmp) {
-        cli_outfile_abort(o);
-        return cli_error("%s: out of memory", what);
-    }
-    memcpy(o->tmp, o->target, len);
-    memcpy(o->tmp + len, ".tmp.XXXXXX", 12);
     install_cleanup();
     /* Create and register with the signals held off: a signal between the
      * two would leave the file. */
     sigset_t old;
     block_signals(&old);
-    int fd = mkstemp(o->tmp);
-    int err = errno;
+    int fd = create_temp(o, &o->tmp);
+    int err = fd < 0 ? -fd : 0;
     if (fd >= 0)
         for (int i = 0; i < CLI_OUTFILE_MAX && o->slot < 0; i++)
             if (!cleanup_paths[i]) {
+                cleanup_dirs[i] = o->dirfd;
                 cleanup_paths[i] = o->tmp;
                 o->slot = i;
             }
     restore_signals(&old);
     if (fd < 0) {
-        free(o->tmp);
-        o->tmp = NULL;
         cli_outfile_abort(o);
         return cli_error("%s: cannot create a file beside '%s': %s", what, path,
                          strerror(err));
@@ -268,10 +315,13 @@ static int put_in_place(cli_outfile *o)
         return 0;
     sigset_t old;
     block_signals(&old);
-    int r = rename(o->tmp, o->target);
+    /* Both names relative to the directory the walk found: nothing on the
+     * way is looked up again, and rename(2) never follows the last
+     * component (a link put there since is replaced, not followed). */
+    int r = renameat(o->dirfd, o->tmp, o->dirfd, o->name);
     int err = errno;
     if (r != 0)
-        unlink(o->tmp);
+        unlinkat(o->dirfd, o->tmp, 0);
     unregister(o);
     restore_signals(&old);
     free(o->tmp);
@@ -282,13 +332,11 @@ static int put_in_place(cli_outfile *o)
     /* The rename is durable once the directory is on disk too.  Best
      * effort: the new file is in place already, and some file systems
      * refuse fsync on a directory. */
-    char *dir = dir_of(o->target);
-    int dfd = dir ? open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC) : -1;
+    int dfd = openat(o->dirfd, ".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (dfd >= 0) {
         (void)fsync(dfd);
         close(dfd);
     }
-    free(dir);
     return 0;
 }
 
@@ -319,12 +367,17 @@ void cli_outfile_abort(cli_outfile *o)
     if (o->tmp) {
         sigset_t old;
         block_signals(&old);
-        unlink(o->tmp);
+        unlinkat(o->dirfd, o->tmp, 0);
         unregister(o);
         restore_signals(&old);
         free(o->tmp);
         o->tmp = NULL;
     }
+    if (o->name)
+        close(o->dirfd);
+    free(o->name);
+    o->name = NULL;
+    o->dirfd = -1;
     free(o->target);
     o->target = NULL;
 }

@@ -13,6 +13,11 @@
  *     systems), which is fsynced and then renamed over the target only
  *     when complete (and the directory fsynced after, best effort).  A symbolic link is followed: the file it names is
  *     replaced and the link stays.
+ *   - ... except a link that pathwalk.h's rule refuses: another user's
+ *     link in a sticky, world-writable directory (/tmp), anywhere on the
+ *     way, whatever fs.protected_symlinks says.  The target's directory
+ *     is found once, by that walk; the temporary file is created
+ *     (O_EXCL, O_NOFOLLOW, a random name) and renamed relative to it.
  *   - "Could not open it for writing" decides whether a regular target may
  *     be replaced.  It is refused when
  *       * faccessat(W_OK, AT_EACCESS) says no (so a non-root user's 0444
@@ -50,8 +55,12 @@
 typedef struct cli_outfile {
     FILE *f;                  /* write here; NULL when not open */
     char *target;             /* the file to replace (links resolved), or the
-                                 device/FIFO written in place */
-    char *tmp;                /* the temporary file, NULL when in place */
+                                 device/FIFO written in place: for messages */
+    char *name;               /* its name in dirfd */
+    char *tmp;                /* the temporary file's name in dirfd, NULL
+                                 when written in place */
+    int dirfd;                /* the directory holding both (pathwalk.h);
+                                 open while name is not NULL */
     const char *what;         /* "--out", "--png", ...: for error lines */
     int slot;                 /* signal-cleanup slot, -1 when none */
 } cli_outfile;

@@ -19,12 +19,61 @@
 #include "client_impl.h"
 #include "qmc/auth.h"
 
-int qmc__client_load_key(qmc_client *c, const char *path)
+/* What a file that is not regular is, for the error line. */
+static const char *file_kind(mode_t mode)
 {
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY);
+    if (S_ISFIFO(mode))
+        return "a FIFO";
+    if (S_ISDIR(mode))
+        return "a directory";
+    if (S_ISCHR(mode))
+        return "a character device";
+    if (S_ISBLK(mode))
+        return "a block device";
+    if (S_ISSOCK(mode))
+        return "a socket";
+    return "of an unknown type";
+}
+
+/* Opens the key file only if it is a regular file, never waiting: before
+ * issue 22, --auth-key naming a FIFO hung qmc (and any program connecting
+ * with $QMC_AUTH_KEY_FILE) in open() until someone wrote to it.  A FIFO or
+ * a device is refused before it is opened (opening a device can act on
+ * its own); the open is non-blocking, so a name swapped for a FIFO since
+ * the stat returns at once and the fstat refuses it.  The descriptor, or
+ * a negative code with c->message set: QMC_EAUTH for a file that is not
+ * regular, -errno otherwise. */
+static int open_regular(qmc_client *c, const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return qmc__client_fail(c, -errno, "auth key %s: cannot open: %s", path,
+                                strerror(errno));
+    if (!S_ISREG(st.st_mode))
+        return qmc__client_fail(c, QMC_EAUTH, "auth key %s: is %s, not a regular file", path,
+                                file_kind(st.st_mode));
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
     if (fd < 0)
         return qmc__client_fail(c, -errno, "auth key %s: cannot open: %s", path,
                                 strerror(errno));
+    int flags;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || (flags = fcntl(fd, F_GETFL)) < 0 ||
+        fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) {
+        int err = S_ISREG(st.st_mode) ? -errno : QMC_EAUTH;
+        close(fd);
+        if (err == QMC_EAUTH)
+            return qmc__client_fail(c, err, "auth key %s: is %s, not a regular file", path,
+                                    file_kind(st.st_mode));
+        return qmc__client_fail(c, err, "auth key %s: %s", path, strerror(-err));
+    }
+    return fd;
+}
+
+int qmc__client_load_key(qmc_client *c, const char *path)
+{
+    int fd = open_regular(c, path);
+    if (fd < 0)
+        return fd;
     struct stat st;
     const char *why = NULL;
     uint8_t key[QMC_AUTH_KEY_MAX_BYTES + 1];

@@ -5,8 +5,12 @@
 # waited for through --ready-file and stopped by PID:
 #
 #   - a TCP listener off loopback (0.0.0.0, [::]) without --auth-key is
-#     refused before anything is bound; a key file open to others (0644), or
-#     too short, is refused at start, and on SIGHUP (the old key stays);
+#     refused before anything is bound; a key file open to others (0644),
+#     too short, or not a regular file (a FIFO, a directory) is refused at
+#     start, and on SIGHUP (the old key stays) - a FIFO at once, without
+#     waiting for a writer, by qmcd and by qmc alike (issue 22, finding 5;
+#     those qmcd and qmc run under `timeout`, so a regression fails rather
+#     than hangs);
 #   - with a key: qmc without one is refused, with --auth-key or
 #     QMC_AUTH_KEY_FILE it is served, remote points byte-identical to local;
 #     a wrong key gets ERROR and a closed connection; the Unix socket keeps
@@ -41,7 +45,19 @@ peer() {
     grep -q '^ok ' "$tmp/peer.out" || bad "authpeer $1 printed no checks"
 }
 
+# release FIFO: opens FIFO for writing without waiting and closes it, so a
+# reader stuck on it (the bug) gets EOF and moves on; nothing otherwise.
+release() {
+    /usr/bin/python3 -c 'import os, sys
+try:
+    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
+except OSError:
+    pass' "$1"
+}
+
 umask 077
+mkfifo "$tmp/fifo"
+mkdir "$tmp/dir"
 head -c 32 /dev/urandom > "$tmp/key"
 head -c 32 /dev/urandom > "$tmp/key2"
 head -c 32 /dev/urandom > "$tmp/wrong"
@@ -64,14 +80,18 @@ wait_nonempty "$tmp/r1" $p1
 if grep -q '^tcp:127.0.0.1:' "$tmp/r1" 2>/dev/null && grep -q '^tcp:127.0.0.9:' "$tmp/r1"; then
     ok; else bad "tcp::0 is not loopback or 127.0.0.9 refused: $(cat "$tmp/r1" "$tmp/err")"; fi
 kill $p1 2>/dev/null; wait $p1 2>/dev/null
-for k in open short; do
-    "$QMCD" --foreground --listen "unix:$tmp/x.sock" --auth-key "$tmp/$k" \
+for k in open short fifo dir; do
+    # -k: qmcd blocks SIGTERM before it reads the key.
+    timeout -k 5 30 "$QMCD" --foreground --listen "unix:$tmp/x.sock" --auth-key "$tmp/$k" \
         --ready-file "$tmp/r2" 2> "$tmp/err" > /dev/null
     rc=$?
+    release "$tmp/fifo"
     if [ $rc -eq 2 ] && [ ! -e "$tmp/r2" ] && [ ! -e "$tmp/x.sock" ] &&
-        grep -q "auth-key $tmp/$k" "$tmp/err"; then ok; else
+        grep -q "auth-key $tmp/$k" "$tmp/err" && [ "$(wc -l < "$tmp/err")" -eq 1 ]; then ok; else
         bad "key file $k accepted: rc $rc, $(cat "$tmp/err")"; fi
 done
+grep -q "auth-key $tmp/dir: is a directory, not a regular file" "$tmp/err" && ok ||
+    bad "a directory key: $(cat "$tmp/err")"
 grep -q 'chmod 600' "$tmp/err" 2>/dev/null || true
 
 # ---- the daemon with a key ----------------------------------------------------
@@ -99,6 +119,12 @@ expect_fail "wrong key over TCP" "not the server's" \
     "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/wrong"
 expect_fail "client key file 0644" "chmod 600" \
     "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/open"
+expect_fail "client key file a FIFO" "auth key $tmp/fifo: is a FIFO, not a regular file" \
+    timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/fifo"
+release "$tmp/fifo"
+expect_fail "QMC_AUTH_KEY_FILE a FIFO" "is a FIFO" \
+    env QMC_AUTH_KEY_FILE="$tmp/fifo" timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1
+release "$tmp/fifo"
 if "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key" > /dev/null 2> "$tmp/err"; then
     ok; else bad "--auth-key: $(cat "$tmp/err")"; fi
 if QMC_AUTH_KEY_FILE="$tmp/key" "$QMC" stats --connect "$TCP" > "$tmp/stats" 2> "$tmp/err" &&
@@ -157,6 +183,20 @@ chmod 600 "$tmp/key"
 if grep -q "reload rejected.*auth-key $tmp/key: is readable" "$tmp/qmcd.log" &&
     "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key" > /dev/null 2>&1; then
     ok; else bad "SIGHUP with a 0644 key: not refused, or the old key lost"; fi
+# The key swapped for a FIFO: refused at once, and the daemon serves on
+# with the old key (on main it froze until someone wrote to the FIFO).
+mv "$tmp/key" "$tmp/key.saved"
+mkfifo "$tmp/key"
+kill -HUP "$pid"
+wait_log 2 'reload rejected'
+if grep -q "reload rejected.*auth-key $tmp/key: is a FIFO, not a regular file" "$tmp/qmcd.log"
+then ok; else bad "SIGHUP with a FIFO key: $(tail -n 2 "$tmp/qmcd.log")"; fi
+if timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key.saved" \
+    > /dev/null 2> "$tmp/err"; then ok
+else bad "PING after SIGHUP with a FIFO key: $(cat "$tmp/err")"; fi
+release "$tmp/key"
+rm -f "$tmp/key"
+mv "$tmp/key.saved" "$tmp/key"
 cp "$tmp/key2" "$tmp/key"
 kill -HUP "$pid"
 wait_log 1 'configuration reloaded'

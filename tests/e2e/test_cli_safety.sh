@@ -6,6 +6,11 @@
 #      file refused (as that user's neighbour, via setpriv, and as root in a
 #      sticky directory); the target's mode kept, 0666 & ~umask for a new
 #      file; links followed; SIGTERM, SIGHUP and SIGINT leave no *.tmp.*;
+#      another user's link in a sticky, world-writable directory (the
+#      last component or one inside the path, a file or an output
+#      directory) refused, ours and the directory owner's followed, and
+#      a link planted under a temporary file's name never written through
+#      (issue 22, finding 6);
 #   2. write errors: > /dev/full and --out /dev/full fail with one line;
 #   3. spectrum: an unwritable --png leaves no CSV (and an old CSV as it
 #      was); --png and --csv naming one file are refused;
@@ -151,6 +156,101 @@ if [ "$(id -u)" -eq 0 ] && command -v setpriv > /dev/null && id nobody > /dev/nu
     chmod 0700 "$tmp"
 else
     echo "skip: other users' files (needs root, setpriv and the nobody user)"
+fi
+
+# Symbolic links in sticky world-writable directories (issue 22, finding
+# 6): qmc applies the kernel's protected_symlinks rule itself, whatever
+# fs.protected_symlinks says.  A link there is followed only when it
+# belongs to us or to the directory's owner; every link on the way is
+# checked, the last one and the ones inside the path alike.  The victims
+# are root's own files in $tmp/victims; the other owners are numeric uids
+# (chown needs no account for them).  Each refusal must leave the victim
+# as it was and no temporary file anywhere.
+if [ "$(id -u)" -eq 0 ]; then
+    OTHER=54321 THIRD=54322
+    v=$tmp/victims
+    mkdir "$v"
+    # victim NAME: a fresh file of root's holding "victim NAME"
+    victim() { echo "victim $1" > "$v/$1"; chmod 0644 "$v/$1"; }
+    intact() { [ "$(cat "$v/$1" 2>/dev/null)" = "victim $1" ]; }
+    # refused NAME LINKPATH VICTIM: --out LINKPATH is refused with one
+    # line that says why, and the victim is as it was.
+    refused() {
+        "$QMC" $P --out "$2" > "$tmp/out" 2> "$tmp/err"; rc=$?
+        one_error "$1"
+        grep -q 'symbolic link' "$tmp/err" && grep -q 'sticky' "$tmp/err" ||
+            bad "$1: the message does not say why: $(cat "$tmp/err")"
+        intact "$3" && ok || bad "$1: the victim changed: $(head -n 1 "$v/$3")"
+    }
+    # followed NAME LINKPATH VICTIM: the link is followed, the file it
+    # names replaced, the link kept.
+    followed() {
+        "$QMC" $P --out "$2" 2> "$tmp/err"; rc=$?
+        if [ $rc -eq 0 ] && [ -L "$2" ] && cmp -s "$v/$3" "$tmp/ref.csv"; then ok
+        else bad "$1: exit $rc, $(cat "$tmp/err")"; fi
+    }
+    st=$tmp/sticky-root            # sticky, world-writable, root's
+    mkdir "$st"; chmod 1777 "$st"
+    so=$tmp/sticky-other           # sticky, world-writable, uid OTHER's
+    mkdir "$so"; chmod 1777 "$so"; chown "$OTHER" "$so"
+    sg=$tmp/sticky-group           # sticky but not world-writable
+    mkdir "$sg"; chmod 1770 "$sg"
+
+    victim a; ln -s "$v/a" "$st/a"; chown -h "$OTHER" "$st/a"
+    refused "another user's link in root's sticky directory" "$st/a" a
+    victim b; ln -s "$v/b" "$st/b"
+    followed "our own link in a sticky directory" "$st/b" b
+    victim c; ln -s "$v/c" "$so/c"; chown -h "$OTHER" "$so/c"
+    followed "the directory owner's link in a sticky directory" "$so/c" c
+    victim d; ln -s "$v/d" "$so/d"; chown -h "$THIRD" "$so/d"
+    refused "a third user's link in another user's sticky directory" "$so/d" d
+    victim e; ln -s "$v/e" "$sg/e"; chown -h "$OTHER" "$sg/e"
+    followed "another user's link in a sticky directory closed to others" "$sg/e" e
+    # A chain: our own link to another user's link, both in the sticky
+    # directory.  The second one decides.
+    victim f; ln -s "$v/f" "$st/f2"; chown -h "$OTHER" "$st/f2"; ln -s f2 "$st/f1"
+    refused "our link to another user's link" "$st/f1" f
+    # A link inside the path: $st/dir -> $v, another user's.
+    victim g; ln -s "$v" "$st/dir"; chown -h "$OTHER" "$st/dir"
+    refused "another user's link to a directory, inside the path" "$st/dir/g" g
+    "$QMC" $P --out "$st/dir/new" 2> "$tmp/err"; rc=$?
+    one_error "a new file through another user's directory link"
+    [ ! -e "$v/new" ] && ok || bad "a new file was created through another user's link"
+    # ... and a relative path that reaches the link through ".." is no way round.
+    victim g
+    (cd "$v" && "$QMC" $P --out "../sticky-root/dir/g") 2> "$tmp/err"; rc=$?
+    one_error "another user's link reached through .."
+    intact g && ok || bad "the victim changed through a relative path"
+    # The link's parent decides, not where the path was typed: cd into the
+    # sticky directory and name the link bare.
+    victim a
+    (cd "$st" && "$QMC" $P --out a) 2> "$tmp/err"; rc=$?
+    one_error "another user's link named from inside the sticky directory"
+    intact a && ok || bad "the victim changed through a bare name"
+    for dir in "$v" "$st" "$so" "$sg"; do no_temp "$dir" "links in sticky directories"; done
+
+    # An output directory (stability --out DIR): DIR through another
+    # user's link is refused like a file ...
+    STAB="stability --quick --cases jump-step-1d --methods mc"
+    victim h; mkdir "$v/hdir"; ln -s "$v/hdir" "$st/hlink"; chown -h "$OTHER" "$st/hlink"
+    "$QMC" $STAB --out "$st/hlink" > "$tmp/out" 2> "$tmp/err"; rc=$?
+    one_error "stability --out through another user's link"
+    [ -z "$(ls -A "$v/hdir")" ] && ok || bad "stability wrote through the link: $(ls -A "$v/hdir")"
+    # ... and its temporary files cannot be aimed either: DIR is the
+    # sticky directory itself, and another user has planted a link under
+    # the name the file would have had (.NAME.tmpPID on main; the shell's
+    # PID is qmc's after exec).
+    victim i
+    sh -c 'for n in stability.csv REPORT.md stability-matrix.dat stability.gp; do
+               ln -s "$2" "$1/.$n.tmp$$"; chown -h "$3" "$1/.$n.tmp$$"; done
+           shift 3; exec "$@"' _ "$st" "$v/i" "$OTHER" "$QMC" $STAB --out "$st" \
+        > "$tmp/out" 2> "$tmp/err"; rc=$?
+    if [ $rc -eq 0 ] && [ -s "$st/stability.csv" ] && [ ! -L "$st/stability.csv" ]; then ok
+    else bad "stability --out a sticky directory: exit $rc, $(cat "$tmp/err")"; fi
+    intact i && ok || bad "stability --out wrote through a planted link: $(head -n 1 "$v/i")"
+    [ -z "$(find "$st" -maxdepth 1 -name '.qmc-*')" ] && ok || bad "stability left its staging directory"
+else
+    echo "skip: links in sticky directories (needs root to give links other owners)"
 fi
 
 # Signals while a temporary file exists: the file goes, the target stays

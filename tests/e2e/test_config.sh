@@ -4,9 +4,17 @@
 # and line (or the flag) and nothing on stdout; checking binds nothing.
 # systemd/qmcd.conf names every option qmcd has (tried uncommented, it is
 # still valid), and qmcd.conf(5) documents them (test_install.sh).
-# Env: QMCD.  Prints "N passed, M failed".
+# A FIFO, a directory or a device where the config or key file is
+# expected is refused at once, naming what it is - by --check-config, at
+# start, and on SIGHUP, where the running configuration stays (issue 22,
+# finding 5).  Every qmcd here runs under `timeout` (-k: a started qmcd
+# blocks SIGTERM), so that one waiting for a FIFO's writer fails the test
+# instead of hanging it.  --ready-file in a sticky directory writes through
+# no link another user planted under its temporary name.
+# Env: QMCD, QMC.  Prints "N passed, M failed".
 set -u
 : "${QMCD:?QMCD must name the qmcd binary}"
+: "${QMC:?QMC must name the qmc binary}"
 HERE="$(cd "$(dirname "$0")" && pwd)"
 TOP="$(cd "$HERE/../.." && pwd)"
 EXAMPLE="$TOP/systemd/qmcd.conf"
@@ -18,7 +26,7 @@ expect_bad() {
     what=$1
     pat=$2
     shift 2
-    "$QMCD" --check-config "$@" > "$tmp/out" 2> "$tmp/err"
+    timeout -k 5 30 "$QMCD" --check-config "$@" > "$tmp/out" 2> "$tmp/err"
     st=$?
     if [ $st -eq 2 ] && [ ! -s "$tmp/out" ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] &&
         grep -Eq -- "$pat" "$tmp/err"; then ok
@@ -69,6 +77,108 @@ expect_bad "unknown flag" "^qmcd: unknown option '--bogus-flag'" --config "$EXAM
 if "$QMCD" --check-config --config "$EXAMPLE" --listen "unix:$tmp/never.sock" > /dev/null &&
     [ ! -e "$tmp/never.sock" ]; then ok
 else bad "--check-config created its listener"; fi
+
+# ---- files that are not regular files ------------------------------------
+# release FIFO: opens FIFO for writing without waiting and closes it, so a
+# qmcd stuck reading it (the bug) gets EOF and moves on; nothing when no
+# reader has it open.
+release() {
+    /usr/bin/python3 -c 'import os, sys
+try:
+    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
+except OSError:
+    pass' "$1"
+}
+printf 'threads = 1\n' > "$tmp/plain.conf"
+mkfifo "$tmp/fifo.conf" "$tmp/fifo.key"
+mkdir "$tmp/dir.conf"
+expect_bad "a FIFO config" "^qmcd: $tmp/fifo.conf: is a FIFO, not a regular file" \
+    --config "$tmp/fifo.conf"
+expect_bad "a directory config" "^qmcd: $tmp/dir.conf: is a directory, not a regular file" \
+    --config "$tmp/dir.conf"
+expect_bad "a FIFO key" "^qmcd: auth-key $tmp/fifo.key: is a FIFO, not a regular file" \
+    --config "$tmp/plain.conf" --auth-key "$tmp/fifo.key"
+printf 'auth-key = %s\n' "$tmp/fifo.key" > "$tmp/fifokey.conf"
+expect_bad "a FIFO key named in the file" "^qmcd: auth-key $tmp/fifo.key: is a FIFO" \
+    --config "$tmp/fifokey.conf"
+# A device: our own node with the numbers of the null device, as root (a
+# test names no system path).
+if [ "$(id -u)" -eq 0 ] && mknod -m 600 "$tmp/chr" c 1 3 2>/dev/null; then
+    expect_bad "a device key" "^qmcd: auth-key $tmp/chr: is a character device" \
+        --config "$tmp/plain.conf" --auth-key "$tmp/chr"
+    expect_bad "a device config" "^qmcd: $tmp/chr: is a character device" --config "$tmp/chr"
+else
+    echo "skip: device files (needs root to make one)"
+fi
+release "$tmp/fifo.conf"; release "$tmp/fifo.key"
+# At start (not --check-config), before and after the signals are blocked:
+# exit 2, one line, nothing bound.
+for how in "--config $tmp/fifo.conf" "--config $tmp/plain.conf --auth-key $tmp/fifo.key"; do
+    # shellcheck disable=SC2086
+    timeout -k 5 30 "$QMCD" --foreground $how --listen "unix:$tmp/start.sock" \
+        --ready-file "$tmp/start.ready" > "$tmp/out" 2> "$tmp/err"
+    st=$?
+    release "$tmp/fifo.conf"; release "$tmp/fifo.key"
+    if [ $st -eq 2 ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q 'is a FIFO' "$tmp/err" &&
+        [ ! -e "$tmp/start.sock" ] && [ ! -e "$tmp/start.ready" ]; then ok
+    else bad "start with $how: exit $st, $(cat "$tmp/err")"; fi
+done
+# SIGHUP after the config was swapped for a FIFO: the reload is refused
+# with the reason, the daemon serves PING with its old settings (the
+# max-points it reports), and a good file after that is taken again.
+printf 'max-points = 1234\n' > "$tmp/live.conf"
+if start live --config "$tmp/live.conf" --listen "unix:$tmp/live.sock"; then
+    live=$pid
+    # wait_log PATTERN: until the daemon's log has a line matching (bounded).
+    wait_log() {
+        i=0
+        while ! grep -q -- "$1" "$tmp/live.log" && [ $i -lt 2000 ]; do i=$((i + 1)); sleep 0.01; done
+    }
+    mv "$tmp/live.conf" "$tmp/live.saved"
+    mkfifo "$tmp/live.conf"
+    kill -HUP "$live"
+    wait_log 'reload rejected'
+    if grep -q "reload rejected, keeping the running configuration: $tmp/live.conf: is a FIFO" \
+        "$tmp/live.log"; then ok
+    else bad "SIGHUP with a FIFO config: $(tail -n 3 "$tmp/live.log")"; fi
+    timeout -k 5 30 "$QMC" ping --connect "unix:$tmp/live.sock" --count 1 > "$tmp/out" 2> "$tmp/err"
+    st=$?
+    if [ $st -eq 0 ] && grep -q '1234 points a request' "$tmp/out"; then ok
+    else bad "PING after SIGHUP with a FIFO config: exit $st, $(cat "$tmp/out" "$tmp/err")"; fi
+    release "$tmp/live.conf"
+    rm -f "$tmp/live.conf"
+    printf 'max-points = 4321\n' > "$tmp/live.conf"
+    kill -HUP "$live"
+    wait_log 'configuration reloaded'
+    timeout -k 5 30 "$QMC" ping --connect "unix:$tmp/live.sock" --count 1 > "$tmp/out" 2>&1
+    grep -q '4321 points a request' "$tmp/out" && ok ||
+        bad "a good config after the FIFO was not taken: $(cat "$tmp/out")"
+    kill "$live"
+    if wait_exit "$live" 30; then wait "$live"; st=$?; forget "$live"; else st=stuck; fi
+    [ "$st" = 0 ] && ok || bad "qmcd after the FIFO reload: exit status $st"
+fi
+
+# --ready-file in a sticky, world-writable directory: another user's link
+# planted under the temporary name qmcd wrote the file under (READY.tmp on
+# main) is not written through; the ready file is a file of its own.
+if [ "$(id -u)" -eq 0 ]; then
+    sticky=$tmp/sticky
+    mkdir "$sticky"; chmod 1777 "$sticky"
+    echo "victim" > "$tmp/victim"
+    ln -s "$tmp/victim" "$sticky/r.ready.tmp"; chown -h 54321 "$sticky/r.ready.tmp"
+    "$QMCD" --foreground --listen "unix:$tmp/r.sock" \
+        --ready-file "$sticky/r.ready" 2> "$tmp/r.log" & rpid=$!
+    pids="$pids $rpid"
+    wait_nonempty "$sticky/r.ready" "$rpid"
+    if [ "$(cat "$tmp/victim")" = victim ] && [ ! -L "$sticky/r.ready" ] &&
+        grep -q "^pid $rpid\$" "$sticky/r.ready"; then ok
+    else bad "--ready-file wrote through a planted link: victim '$(head -n 1 "$tmp/victim")', $(cat "$tmp/r.log")"; fi
+    kill "$rpid"
+    if wait_exit "$rpid" 30; then wait "$rpid"; forget "$rpid"; fi
+else
+    echo "skip: --ready-file in a sticky directory (needs root to give a link another owner)"
+fi
+
 # 1M suffixes and the file's settings are what a run would use
 printf 'max-points = 1M\nthreads = 1\n' > "$tmp/good.conf"
 if "$QMCD" --check-config --config "$tmp/good.conf" | grep -q "good.conf: configuration is valid"; then ok

@@ -1,8 +1,9 @@
 /*
  * test_cli_files.c - unit tests of the CLI's file pieces that need no
  * process around them: the line splitter, the CSV points reader, the
- * --part reader (fed whole and byte by byte), and outfile.c's rules on a
- * temporary directory.  The digests in the part tests come from libsodium
+ * --part reader (fed whole and byte by byte), and outfile.c's and
+ * pathwalk.c's rules on a temporary directory (where the walk ends is
+ * checked against stat(2) of the path the kernel resolves).  The digests in the part tests come from libsodium
  * here, and the e2e suite checks the writer's against sha256sum.
  */
 #include <setjmp.h>
@@ -21,6 +22,7 @@
 #include "linebuf.h"
 #include "outfile.h"
 #include "part_read.h"
+#include "pathwalk.h"
 
 /* ---- linebuf ------------------------------------------------------------------ */
 
@@ -364,6 +366,102 @@ static void test_outfile(void **state)
     assert_true(cli_outfile_same(path_in("a"), path_in("link")));
 }
 
+/* ---- pathwalk --------------------------------------------------------------------- */
+
+/* 1 when w's directory is the directory at path (the same inode). */
+static int walked_to(const cli_pathwalk *w, const char *path)
+{
+    struct stat a, b;
+    return fstat(w->dirfd, &a) == 0 && stat(path, &b) == 0 && a.st_dev == b.st_dev &&
+           a.st_ino == b.st_ino;
+}
+
+static void test_pathwalk(void **state)
+{
+    (void)state;
+    cli_pathwalk w;
+    assert_int_equal(mkdir(path_in("d"), 0755), 0);
+    assert_int_equal(mkdir(path_in("d/e"), 0755), 0);
+    FILE *f = fopen(path_in("d/e/file"), "w");
+    assert_non_null(f);
+    fclose(f);
+    /* plain, "..", ".", doubled slashes */
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/e/../e/.//file"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d/e")));
+    assert_string_equal(w.name, "file");
+    assert_true(w.exists && S_ISREG(w.st.st_mode) && !w.through_link);
+    assert_string_equal(w.shown, path_in("d/e/file"));
+    cli_pathwalk_close(&w);
+    /* a missing last component is a new file, not an error */
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/new"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d")) && !w.exists && !w.dir_only);
+    cli_pathwalk_close(&w);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/newdir/"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d")) && !w.exists && w.dir_only);
+    assert_string_equal(w.name, "newdir");
+    cli_pathwalk_close(&w);
+    /* a trailing slash or "." names the directory itself */
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/e/"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d/e")) && w.exists && S_ISDIR(w.st.st_mode));
+    assert_string_equal(w.name, ".");
+    cli_pathwalk_close(&w);
+    /* links: relative ones from the link's directory, a chain, an absolute
+     * one, a link inside the path; where a link ends at a missing name */
+    assert_int_equal(symlink("e/file", path_in("d/l1")), 0);
+    assert_int_equal(symlink("l1", path_in("d/l2")), 0);
+    assert_int_equal(symlink(path_in("d/e"), path_in("abs")), 0);
+    assert_int_equal(symlink("e/none", path_in("d/dangling")), 0);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/l2"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d/e")) && w.exists && w.through_link);
+    assert_string_equal(w.name, "file");
+    cli_pathwalk_close(&w);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("abs/../l1"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d/e")) && w.exists); /* ".." of the target */
+    cli_pathwalk_close(&w);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("d/dangling"), "--out"), 0);
+    assert_true(!w.exists && w.through_link);
+    cli_pathwalk_close(&w);
+    /* refused: a loop, a file used as a directory, a missing directory */
+    assert_int_equal(symlink("loop2", path_in("loop1")), 0);
+    assert_int_equal(symlink("loop1", path_in("loop2")), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("loop1"), "--out"), 0);
+    assert_null(w.name);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("d/e/file/x"), "--out"), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("nodir/x"), "--out"), 0);
+    /* The protected_symlinks rule needs links of other owners: root only. */
+    if (geteuid() != 0)
+        return;
+    const uid_t other = 54321, third = 54322;
+    assert_int_equal(mkdir(path_in("st"), 0755), 0);
+    assert_int_equal(chmod(path_in("st"), 01777), 0);
+    assert_int_equal(symlink(path_in("d/e/file"), path_in("st/l")), 0);
+    assert_int_equal(symlink(path_in("d/e"), path_in("st/dirlink")), 0);
+    assert_int_equal(lchown(path_in("st/l"), other, (gid_t)-1), 0);
+    assert_int_equal(lchown(path_in("st/dirlink"), other, (gid_t)-1), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("st/l"), "--out"), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("st/dirlink/file"), "--out"), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("st/dirlink/new"), "--out"), 0);
+    /* the directory's owner's link is followed; a third user's is not */
+    assert_int_equal(chown(path_in("st"), other, (gid_t)-1), 0);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("st/dirlink/file"), "--out"), 0);
+    assert_true(walked_to(&w, path_in("d/e")));
+    cli_pathwalk_close(&w);
+    assert_int_equal(lchown(path_in("st/l"), third, (gid_t)-1), 0);
+    assert_int_not_equal(cli_pathwalk_open(&w, path_in("st/l"), "--out"), 0);
+    /* ... and so is ours, and any link once the directory is closed to others */
+    assert_int_equal(lchown(path_in("st/l"), 0, (gid_t)-1), 0);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("st/l"), "--out"), 0);
+    cli_pathwalk_close(&w);
+    assert_int_equal(lchown(path_in("st/l"), third, (gid_t)-1), 0);
+    assert_int_equal(chmod(path_in("st"), 01770), 0);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("st/l"), "--out"), 0);
+    cli_pathwalk_close(&w);
+    /* sticky and world-writable both count: o+w without the sticky bit */
+    assert_int_equal(chmod(path_in("st"), 0777), 0);
+    assert_int_equal(cli_pathwalk_open(&w, path_in("st/l"), "--out"), 0);
+    cli_pathwalk_close(&w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -371,6 +469,7 @@ int main(void)
         cmocka_unit_test(test_csv),
         cmocka_unit_test(test_part),
         cmocka_unit_test_setup_teardown(test_outfile, outfile_setup, outfile_teardown),
+        cmocka_unit_test_setup_teardown(test_pathwalk, outfile_setup, outfile_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
