@@ -13,9 +13,9 @@
 #      one request's bytes;
 #   3. a task killed while it runs (scancel of one array task): the merge
 #      that waits for the array does not run (Slurm 22.05 keeps it PENDING
-#      with Reason=DependencyNeverSatisfied: without kill_invalid_depend
-#      it is neither run nor cancelled), also after every other task has
-#      finished; re-running that one task and pointing the merge at it
+#      with Reason=DependencyNeverSatisfied: unless DependencyParameters
+#      has kill_invalid_depend, it is neither run nor cancelled), also
+#      after every other task has finished; re-running that one task and pointing the merge at it
 #      (scontrol update ... dependency=afterok:RERUN) completes the merge,
 #      equal to one run;
 #   4. the part and pixel scripts it submits are the ones
