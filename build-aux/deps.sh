@@ -53,7 +53,7 @@ echo "deps.sh: installing Debian packages:$missing" >&2
 if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
 # apt-get update only when the package lists are missing or a day old, so a
 # rerun on a provisioned machine does not touch the network.
-if [ -z "$(find /var/lib/apt/lists -maxdepth 1 -name '*_Packages' -mtime -1 2>/dev/null | head -n 1)" ]; then
+if [ -z "$(find /var/lib/apt/lists -maxdepth 1 -name '*_Packages*' -mtime -1 2>/dev/null | head -n 1)" ]; then
     $sudo apt-get update -q
 fi
 # shellcheck disable=SC2086
