@@ -119,11 +119,14 @@ static inline uint32_t qmc__fast_owen(uint32_t v, uint32_t seed)
  * pbrt-v4's PermutationElement(i, l, p): element i of a permutation of
  * [0, l) chosen by p (Kensler 2013), in its 32-bit form, with pbrt's final
  * (i + p) % l, the sum taken modulo 2^32.  Not qmc__permute (bits.h), which is widened to 64 bits
- * and gives other permutations.  Requires l >= 1 and i < l.
+ * and gives other permutations.  Requires 1 <= l <= 2^32 and i < l; l is
+ * 64-bit only so that l = 2^32 (every 32-bit index, where pbrt's int spp
+ * cannot reach) is the natural limit of the same steps: w = 2^32 - 1, no
+ * cycle walking, and the modulo of the wrapped sum is the identity.
  */
-static inline uint32_t qmc__permutation_element32(uint32_t i, uint32_t l, uint32_t p)
+static inline uint32_t qmc__permutation_element32(uint32_t i, uint64_t l, uint32_t p)
 {
-    uint32_t w = l - 1;
+    uint32_t w = (uint32_t)(l - 1);
     w |= w >> 1;
     w |= w >> 2;
     w |= w >> 4;
@@ -150,7 +153,7 @@ static inline uint32_t qmc__permutation_element32(uint32_t i, uint32_t l, uint32
         i ^= i >> 5;
     } while (i >= l);
     /* pbrt adds in uint32_t: the sum wraps before the modulo. */
-    return (uint32_t)(i + p) % l;
+    return (uint32_t)((uint32_t)(i + p) % l);
 }
 
 #endif

@@ -1,0 +1,160 @@
+/*
+ * pixel_sobol.c - one Joe-Kuo Sobol' sequence over the whole image, as
+ * pbrt-v4's SobolSampler maps pixels to indices, up to 21201 dimensions.
+ *
+ * With m = log2 of the image's power-of-two scale, sample f of pixel
+ * (x, y) is the point of index i in [f 4^m, (f + 1) 4^m) whose first two
+ * coordinates' top m bits are x and y (pbrt's SobolIntervalToIndex: in
+ * every aligned block of 4^m points, dimensions 0 and 1 form a (0, 2m,
+ * 2)-net, so each pixel gets exactly one).  Values 0 and 1 are the
+ * position inside the pixel; value d >= 2 is Sobol' dimension d at i,
+ * FastOwen-scrambled as pbrt's SampleDimension does, without pbrt's wrap
+ * at 1024 dimensions.  Indices are 64-bit (no 2^32 cap).
+ *
+ * Must not: allocate in a fill, or scramble values 0 and 1 (a scramble
+ * would move points out of their pixel).
+ */
+#include "pixel_impl.h"
+#include "sobol_wide.h"
+
+typedef struct sobol_tables {
+    uint32_t m;       /* log2 of the scale */
+    uint32_t ncols;   /* dimensions with columns: max(dims, 2) */
+    uint64_t lx[32];  /* index bits that set x's bit j alone, j < m */
+    uint64_t ly[32];  /* index bits that set y's bit j alone */
+    uint32_t *cols;   /* ncols x 64 generator columns (sobol_wide.h) */
+    uint32_t *seed;   /* per value: frame shift (d < 2) or Owen seed */
+} sobol_tables;
+
+static int sobol_check(const qmc_pixel_spec *spec, qmc__msg *why)
+{
+    if (spec->dims > QMC_PIXEL_SOBOL_MAX_DIMS) {
+        qmc__msg_set(why, "dims ", spec->dims,
+                     " is past sobol's 21201 (the Joe-Kuo table): use dims <= 21201, "
+                     "or zsobol or padded-sobol, whose dimensions are unlimited");
+        return QMC_EDIMS;
+    }
+    const uint32_t w = spec->width > spec->height ? spec->width : spec->height;
+    const uint32_t m = qmc__ceil_log2(w);
+    /* 2m index bits pick the pixel, the rest the sample. */
+    if (m > 0 && spec->spp > (m == 32 ? 1 : 1ull << (64 - 2 * m))) {
+        qmc__msg_set(why, "spp ", spec->spp, " is past the sobol sampler's ");
+        qmc__msg_u64(why, m == 32 ? 1 : 1ull << (64 - 2 * m));
+        qmc__msg_str(why, " samples per pixel at this resolution (its 64-bit index "
+                          "spends 2 log2 of the image's side on the pixel): ask for fewer");
+        return QMC_ECOUNT;
+    }
+    return 0;
+}
+
+static uint32_t ncols_of(const qmc_pixel_spec *spec)
+{
+    return spec->dims < 2 ? 2 : spec->dims;
+}
+
+static size_t sobol_table_bytes(const qmc_pixel_spec *spec)
+{
+    const size_t n = ncols_of(spec);
+    return sizeof(sobol_tables) + n * QMC__SOBOL_WIDE_COLS * sizeof(uint32_t) +
+           spec->dims * sizeof(uint32_t);
+}
+
+/* Top m bits of a 32-bit output. */
+static inline uint64_t top(uint32_t v, uint32_t m)
+{
+    return m == 0 ? 0 : v >> (32 - m);
+}
+
+/*
+ * Solves for the index bits below 2m: the map from those bits to (x, y)
+ * (x's m bits low, y's above) is invertible over GF(2), because dimensions
+ * 0 and 1 form a (0, 2)-sequence.  Gauss-Jordan on (image, preimage) pairs.
+ */
+static void solve_pixel_bits(sobol_tables *s)
+{
+    const uint32_t m = s->m, n = 2 * m;
+    const uint32_t *c0 = s->cols, *c1 = s->cols + QMC__SOBOL_WIDE_COLS;
+    uint64_t img[64], pre[64];
+    for (uint32_t c = 0; c < n; c++) {
+        img[c] = top(c0[c], m) | (top(c1[c], m) << m);
+        pre[c] = 1ull << c;
+    }
+    for (uint32_t b = 0; b < n; b++) {
+        uint32_t r = b;
+        while (!((img[r] >> b) & 1u))
+            r++; /* exists: the map is invertible */
+        uint64_t ti = img[r], tp = pre[r];
+        img[r] = img[b], pre[r] = pre[b];
+        img[b] = ti, pre[b] = tp;
+        for (uint32_t k = 0; k < n; k++)
+            if (k != b && ((img[k] >> b) & 1u)) {
+                img[k] ^= img[b];
+                pre[k] ^= pre[b];
+            }
+    }
+    for (uint32_t j = 0; j < m; j++) {
+        s->lx[j] = pre[j];
+        s->ly[j] = pre[m + j];
+    }
+}
+
+static void sobol_init(qmc_pixels *p)
+{
+    sobol_tables *s = p->tables;
+    const qmc_pixel_spec *spec = &p->spec;
+    s->m = p->log2_res;
+    s->ncols = ncols_of(spec);
+    s->cols = (uint32_t *)(s + 1);
+    s->seed = s->cols + (size_t)s->ncols * QMC__SOBOL_WIDE_COLS;
+    for (uint32_t d = 0; d < s->ncols; d++)
+        qmc__sobol_wide_columns(d, s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS);
+    const uint64_t f = p->frame_mix;
+    for (uint32_t d = 0; d < spec->dims; d++)
+        s->seed[d] = d == 0   ? (uint32_t)f
+                     : d == 1 ? (uint32_t)(f >> 32)
+                              : (uint32_t)(qmc__hash_i32x2(d, spec->seed) ^ f);
+    solve_pixel_bits(s);
+    p->sample_end = s->m == 0 ? UINT64_MAX : s->m == 32 ? 1 : 1ull << (64 - 2 * s->m);
+}
+
+/* pbrt's SobolIntervalToIndex(m, sample, (x, y)), by the solved map. */
+static uint64_t sobol_index(const sobol_tables *s, uint32_t x, uint32_t y, uint64_t sample)
+{
+    const uint32_t m = s->m;
+    if (m == 0)
+        return sample;
+    const uint64_t high = m == 32 ? 0 : sample << (2 * m);
+    /* The sample's bits also reach y's rows of dimension 1: cancel them. */
+    uint64_t ty = y ^ top(qmc__sobol_wide_gather(s->cols + QMC__SOBOL_WIDE_COLS, high), m);
+    uint64_t index = high;
+    for (uint32_t j = 0; j < m; j++) {
+        if ((x >> j) & 1u)
+            index ^= s->lx[j];
+        if ((ty >> j) & 1u)
+            index ^= s->ly[j];
+    }
+    return index;
+}
+
+static uint32_t sobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t sample, uint32_t d)
+{
+    const sobol_tables *s = p->tables;
+    const uint64_t index = sobol_index(s, x, y, sample);
+    const uint32_t v = qmc__sobol_wide_gather(s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS, index);
+    if (d < 2) /* u * scale - pixel, exactly; then the frame's shift */
+        return (s->m == 32 ? 0 : v << s->m) ^ s->seed[d];
+    return qmc__fast_owen(v, s->seed[d]);
+}
+
+static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format fmt, void *out)
+{
+    qmc__pixel_fill_from_at(p, t, fmt, out);
+}
+
+const qmc__pixel_ops qmc__pixel_sobol = {
+    .check = sobol_check,
+    .table_bytes = sobol_table_bytes,
+    .init = sobol_init,
+    .at = sobol_at,
+    .fill = sobol_fill,
+};
