@@ -116,3 +116,18 @@ int qmc_image_spectrum_accumulate(const double *image, uint32_t side,
     }
     return 0;
 }
+
+uint32_t qmc_image_spectrum_low_rings(uint32_t kmax)
+{
+    return kmax / 8 > 0 ? kmax / 8 : 1;
+}
+
+double qmc_image_spectrum_low_band(const double *radial, uint32_t kmax)
+{
+    double sum = 0.0;
+    if (radial == NULL || kmax == 0)
+        return 0.0;
+    for (uint32_t b = 1; b <= qmc_image_spectrum_low_rings(kmax); b++)
+        sum += radial[b];
+    return sum;
+}

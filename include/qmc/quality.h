@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #include "qmc/error.h"
+#include "qmc/pixel.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -161,6 +162,36 @@ size_t qmc_image_spectrum_work_len(uint32_t side);
 QMC_MUST_CHECK int qmc_image_spectrum_accumulate(const double *image,
                                                  uint32_t side, double *power,
                                                  double *work);
+
+/*
+ * The low band of a radial spectrum: rings 1 .. qmc_image_spectrum_low_rings
+ * (kmax) = max(1, kmax / 8), the lowest eighth of the frequencies without
+ * the DC term (the image's mean, not a pattern in it).
+ * qmc_image_spectrum_low_band returns the sum of radial[b] over those
+ * rings, the measure issue 20 compares between samplers (each ring counts
+ * once, whatever its number of frequencies); 0 when radial is NULL or
+ * kmax is 0.
+ */
+uint32_t qmc_image_spectrum_low_rings(uint32_t kmax);
+double qmc_image_spectrum_low_band(const double *radial, uint32_t kmax);
+
+/*
+ * The error image of a pixel sampler on a disk.  Pixel (x0 + i, y0 + j),
+ * for i, j < side, estimates the area of the disk of the given radius
+ * centred at (1/2, 1/2) from its samples 0 .. samples - 1, each the point
+ * (value 0, value 1) / 2^32; image[j * side + i] is that estimate minus
+ * pi radius^2.  work is caller-owned scratch of samples * dims uint32_t
+ * (dims of p's spec).  Feed the image to qmc_image_spectrum_accumulate.
+ *
+ * Errors: QMC_EINVAL (NULL pointer, side or samples 0), QMC_EDOMAIN
+ * (radius not in (0, 1/2]), QMC_EDIMS (the spec has fewer than 2 dims),
+ * and qmc_pixels_tile_check's (QMC_ERANGE: the square or the samples
+ * leave the image or the spp).  Nothing is written on error.
+ */
+QMC_MUST_CHECK int qmc_pixel_disk_error(const qmc_pixels *p, uint32_t x0,
+                                        uint32_t y0, uint32_t side,
+                                        uint64_t samples, double radius,
+                                        uint32_t *work, double *image);
 
 /*
  * t-value of the 2D projection (dim_a, dim_b) of n = 2^m points given as

@@ -248,6 +248,22 @@ static void test_white_noise_flat(void **state)
     spec_close(&s);
 }
 
+/* The low band: rings 1 .. kmax / 8 (at least ring 1), never the DC term. */
+static void test_low_band(void **state)
+{
+    (void)state;
+    double radial[33];
+    for (int b = 0; b <= 32; b++)
+        radial[b] = (double)(1u << (b < 20 ? b : 20));
+    assert_int_equal(qmc_image_spectrum_low_rings(32), 4);
+    assert_int_equal(qmc_image_spectrum_low_rings(64), 8);
+    assert_int_equal(qmc_image_spectrum_low_rings(3), 1);
+    assert_true(qmc_image_spectrum_low_band(radial, 32) == 2 + 4 + 8 + 16);
+    assert_true(qmc_image_spectrum_low_band(radial, 15) == 2);
+    assert_true(qmc_image_spectrum_low_band(radial, 0) == 0);
+    assert_true(qmc_image_spectrum_low_band(NULL, 32) == 0);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -280,6 +296,7 @@ int main(void)
         cmocka_unit_test(test_parseval),
         cmocka_unit_test(test_against_naive_dft),
         cmocka_unit_test(test_white_noise_flat),
+        cmocka_unit_test(test_low_band),
         cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
