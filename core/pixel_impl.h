@@ -49,15 +49,26 @@ extern const qmc__pixel_ops qmc__pixel_sobol;
 
 /*
  * The frame mix F(frame) = MixBits(frame * 0x9e3779b97f4a7c15): a
- * bijection of the 64-bit frame (an odd multiplier, then pbrt's
- * invertible finaliser), so distinct frames never share a mix, and
- * F(0) = 0, so frame 0 leaves pbrt-v4's hashes untouched.  Each sampler
- * XORs it into the 64-bit hashes its randomization comes from
- * (docs/SEQUENCES.md).
+ * bijection of the frame (an odd multiplier, then pbrt's invertible
+ * finaliser), so distinct frames never share a mix, and F = 0 only for
+ * frame 0.  docs/SEQUENCES.md says where each sampler uses it.
  */
 static inline uint64_t qmc__frame_mix(uint32_t frame)
 {
     return qmc__mix_bits((uint64_t)frame * 0x9e3779b97f4a7c15ull);
+}
+
+/*
+ * A pbrt hash h as frame F sees it: h itself for frame 0 (pbrt-v4's
+ * values), MixBits(h ^ F) for any other.  Not h ^ F alone: FastOwen's seed
+ * enters by addition and multiplication, so its top output bits depend on
+ * the seed's low bits nearly linearly, and XORing one constant into every
+ * pixel's seed would flip the same top bits everywhere - correlated frames
+ * (test_pixel_props.c measures it).
+ */
+static inline uint64_t qmc__frame_hash(uint64_t h, uint64_t f)
+{
+    return f ? qmc__mix_bits(h ^ f) : h;
 }
 
 /* pbrt-v4's EncodeMorton2(x, y): x's bits at even positions, y's at odd. */

@@ -42,7 +42,7 @@ static void padded_init(qmc_pixels *p)
 /* pbrt's Hash(pixel, dimension, seed) (16 bytes), mixed with the frame. */
 static inline uint64_t padded_hash(const qmc_pixels *p, uint32_t x, uint32_t y, uint32_t dim)
 {
-    return qmc__hash_i32x4(x, y, dim, p->spec.seed) ^ p->frame_mix;
+    return qmc__frame_hash(qmc__hash_i32x4(x, y, dim, p->spec.seed), p->frame_mix);
 }
 
 static uint32_t padded_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t sample,

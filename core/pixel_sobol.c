@@ -11,8 +11,8 @@
  * FastOwen-scrambled as pbrt's SampleDimension does, without pbrt's wrap
  * at 1024 dimensions.  Indices are 64-bit (no 2^32 cap).
  *
- * Must not: allocate in a fill, or scramble values 0 and 1 (a scramble
- * would move points out of their pixel).
+ * Must not: allocate in a fill, or move values 0 and 1 out of their pixel
+ * (frames scramble them only inside it).
  */
 #include "pixel_impl.h"
 #include "sobol_wide.h"
@@ -23,7 +23,7 @@ typedef struct sobol_tables {
     uint64_t lx[32];  /* index bits that set x's bit j alone, j < m */
     uint64_t ly[32];  /* index bits that set y's bit j alone */
     uint32_t *cols;   /* ncols x 64 generator columns (sobol_wide.h) */
-    uint32_t *seed;   /* per value: frame shift (d < 2) or Owen seed */
+    uint32_t *seed;   /* frame 0's Owen seed of value d >= 2 (0 for d < 2) */
 } sobol_tables;
 
 static int sobol_check(const qmc_pixel_spec *spec, qmc__msg *why)
@@ -108,11 +108,8 @@ static void sobol_init(qmc_pixels *p)
     s->seed = s->cols + (size_t)s->ncols * QMC__SOBOL_WIDE_COLS;
     for (uint32_t d = 0; d < s->ncols; d++)
         qmc__sobol_wide_columns(d, s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS);
-    const uint64_t f = p->frame_mix;
     for (uint32_t d = 0; d < spec->dims; d++)
-        s->seed[d] = d == 0   ? (uint32_t)f
-                     : d == 1 ? (uint32_t)(f >> 32)
-                              : (uint32_t)(qmc__hash_i32x2(d, spec->seed) ^ f);
+        s->seed[d] = d < 2 ? 0 : (uint32_t)qmc__hash_i32x2(d, spec->seed);
     solve_pixel_bits(s);
     p->sample_end = s->m == 0 ? UINT64_MAX : s->m == 32 ? 1 : 1ull << (64 - 2 * s->m);
 }
@@ -136,14 +133,34 @@ static uint64_t sobol_index(const sobol_tables *s, uint32_t x, uint32_t y, uint6
     return index;
 }
 
+/*
+ * The Owen seed of value d at pixel (x, y).  Frame 0 is pbrt's: one
+ * scramble per dimension d >= 2 for the whole image, Hash(d, seed), and
+ * none for the in-pixel position.  Any other frame scrambles every value
+ * per pixel, from pbrt's 16-byte Hash(x, y, d, seed) through the frame:
+ * a new global scramble alone would leave every pixel its frame-0 points
+ * under one shared map, and the frames' errors correlate (r near -0.2 in
+ * test_pixel_props.c); a nested scramble keeps each pixel's nets.
+ */
+static inline uint32_t sobol_seed(const qmc_pixels *p, uint32_t x, uint32_t y, uint32_t d)
+{
+    const sobol_tables *s = p->tables;
+    if (p->frame_mix == 0)
+        return s->seed[d];
+    return (uint32_t)qmc__frame_hash(qmc__hash_i32x4(x, y, d, p->spec.seed), p->frame_mix);
+}
+
 static uint32_t sobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t sample, uint32_t d)
 {
     const sobol_tables *s = p->tables;
     const uint64_t index = sobol_index(s, x, y, sample);
-    const uint32_t v = qmc__sobol_wide_gather(s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS, index);
-    if (d < 2) /* u * scale - pixel, exactly; then the frame's shift */
-        return (s->m == 32 ? 0 : v << s->m) ^ s->seed[d];
-    return qmc__fast_owen(v, s->seed[d]);
+    uint32_t v = qmc__sobol_wide_gather(s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS, index);
+    if (d < 2) {
+        v = s->m == 32 ? 0 : v << s->m; /* u * scale - pixel, exactly */
+        if (p->frame_mix == 0)
+            return v;
+    }
+    return qmc__fast_owen(v, sobol_seed(p, x, y, d));
 }
 
 static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format fmt, void *out)

@@ -115,7 +115,7 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
     const uint64_t morton = (qmc__morton2(x, y) << z->log2_spp) | sample;
     const uint64_t index = zsobol_index(z, morton, dim, p->frame_mix);
     /* pbrt's Get2D hashes the dimension after its `dimension += 2`. */
-    const uint64_t bits = qmc__hash_i32x2(dim + 2, p->spec.seed) ^ p->frame_mix;
+    const uint64_t bits = qmc__frame_hash(qmc__hash_i32x2(dim + 2, p->spec.seed), p->frame_mix);
     /* Sobol' dimension 0 is the bit reversal of the index's low 32 bits;
      * dimension 1 is the Pascal matrix (sobol_wide.h). */
     if (d & 1u)
