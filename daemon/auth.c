@@ -2,8 +2,11 @@
  * auth.c - key authentication in the daemon (PROTOCOL.md section 4.1):
  * loading and checking the key file, deciding which connections must
  * authenticate, running the server's half of the handshake through the
- * pure state machine of protocol/auth.c, and locking out an address after
- * repeated failures.
+ * pure state machine of protocol/auth.c, locking out an address after
+ * repeated failures, and ending every handshake with HELLO_OK (with or
+ * without a key).  AUTH_RESPONSE reaches it through its row of the
+ * dispatch table (qmcd_auth_module), which also frees a connection's
+ * handshake state when the connection goes.
  *
  * Who must authenticate: with a key loaded, every TCP connection (loopback
  * too: every local user can reach it), and Unix-socket connections when
@@ -38,8 +41,8 @@
 
 #include "auth.h"
 #include "conn.h"
-#include "dispatch.h"
 #include "log.h"
+#include "modules.h"
 #include "qmc/auth.h"
 
 /* Addresses whose failures are remembered at once. */
@@ -278,11 +281,36 @@ int qmcd_auth_pending(const qmcd_conn *c)
     return c->auth != NULL;
 }
 
-void qmcd_auth_conn_free(qmcd_conn *c)
+/* Frees c's handshake state (done, or the connection is going away). */
+static void auth_conn_free(qmcd_conn *c)
 {
     free(c->auth);
     c->auth = NULL;
 }
+
+void qmcd_auth_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
+                        uint32_t client_max_frame, int64_t t0)
+{
+    c->hello_done = 1;
+    c->version = version;
+    c->client_max_frame = client_max_frame;
+    const qmcd_config *cfg = &c->srv->cfg;
+    static const char server[] = "qmcd", engine[] = "libqmc 0.1.0";
+    qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = request_id};
+    r.u.hello_ok.version = version;
+    r.u.hello_ok.max_frame = (uint32_t)cfg->max_frame;
+    c->server_max_frame = (uint32_t)cfg->max_frame;
+    r.u.hello_ok.max_inflight = (uint32_t)cfg->max_inflight;
+    r.u.hello_ok.max_points = cfg->max_points;
+    r.u.hello_ok.sobol_table_hash = c->srv->sobol_table_hash;
+    r.u.hello_ok.server.ptr = server;
+    r.u.hello_ok.server.len = sizeof server - 1;
+    r.u.hello_ok.engine.ptr = engine;
+    r.u.hello_ok.engine.len = sizeof engine - 1;
+    if (qmcd_conn_send(c, &r) == 0)
+        qmcd_answered(c->srv, t0);
+}
+
 
 int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
 {
@@ -339,8 +367,9 @@ int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     return 1;
 }
 
-void qmcd_auth_on_response(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+static void on_response(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
+    (void)fd; /* only QMCD_ROUTE_FD rows get one */
     qmcd_server *srv = c->srv;
     qmcd_auth_conn *ac = c->auth;
     if (!ac || ac->st.state != QMC_AUTH_CHALLENGED || m->request_id != ac->request_id) {
@@ -366,8 +395,17 @@ void qmcd_auth_on_response(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     const uint64_t id = ac->request_id;
     const uint16_t version = ac->st.version;
     const uint32_t max_frame = ac->client_max_frame;
-    qmcd_auth_conn_free(c);
+    auth_conn_free(c);
     qmcd_debug("conn %llu (%s): authenticated", (unsigned long long)c->id, c->peer);
     if (qmcd_conn_send(c, &ok) == 0)
-        qmcd_dispatch_hello_ok(c, id, version, max_frame, t0_us);
+        qmcd_auth_hello_ok(c, id, version, max_frame, t0_us);
 }
+
+const qmcd_module qmcd_auth_module = {
+    .name = "auth",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_AUTH_RESPONSE, 0, on_response},
+        {0, 0, NULL},
+    },
+    .conn_drop = auth_conn_free,
+};

@@ -48,14 +48,17 @@ int qmcd_auth_is_loopback(const struct sockaddr *sa);
  */
 int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
 
-/* The AUTH_RESPONSE handler: on a good proof sends AUTH_OK and HELLO_OK;
- * otherwise fails the connection (QMC_EAUTH or QMC_EPROTO). */
-void qmcd_auth_on_response(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
+/* AUTH_RESPONSE is qmcd_auth_module's row (modules.h): on a good proof it
+ * sends AUTH_OK and HELLO_OK; otherwise it fails the connection
+ * (QMC_EAUTH or QMC_EPROTO).  The module frees a connection's handshake
+ * state when the connection goes. */
 
 /* 1 while c has been challenged and owes its AUTH_RESPONSE. */
 int qmcd_auth_pending(const qmcd_conn *c);
 
-/* Frees c's handshake state (the connection is going away). */
-void qmcd_auth_conn_free(qmcd_conn *c);
+/* Ends the handshake: HELLO_OK with version and our limits, after HELLO
+ * (no authentication required: dispatch.c) or a good AUTH_RESPONSE. */
+void qmcd_auth_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
+                        uint32_t client_max_frame, int64_t t0_us);
 
 #endif

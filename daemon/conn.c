@@ -1,12 +1,14 @@
 /*
  * conn.c - client connections: accepting, the bounded output buffer drained
- * as the socket allows, the pump that turns results and chunks into frames,
- * and the deadlines that keep a stuck peer from holding anything for long.
- * Reading and framing the input is conn_read.c.
+ * as the socket allows, the pump that lets the connection's producers
+ * (producer.h) turn their work into frames, and the deadlines that keep a
+ * stuck peer from holding anything for long.  Reading and framing the
+ * input is conn_read.c.  What handlers and producers may do with a
+ * connection (conn_services.h) is implemented here.
  *
  * Buffers.  Output is one contiguous buffer capped by out-buffer-bytes.
- * POINTS data is generated only into free space (points.c), never queued
- * ahead of the socket.
+ * Bulk data (POINTS chunks) is generated only into free space, never
+ * queued ahead of the socket.
  *
  * Closing.  A connection that gets a fatal ERROR (malformed frame,
  * timeouts) stops reading requests, flushes the ERROR, shuts down its
@@ -15,8 +17,9 @@
  * the peer lose the ERROR.  Freed memory is deferred to the end of the
  * loop round, since epoll may still hold events for it.
  *
- * This file must not interpret requests (dispatch.c does) or generate
- * points or run jobs (points.c, jobs.c).
+ * This file must not interpret requests (dispatch.c does) or know what a
+ * producer makes: it pumps, asks and releases them through their kind's
+ * table, and never names a kind.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -33,15 +36,15 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
 #include "peers.h"
-#include "points.h"
+#include "pool.h"
+#include "producer.h"
+#include "ring.h"
 
 /* Fairness: how much one connection may be sent per event. */
 #define PUMP_ROUNDS 8
@@ -231,6 +234,21 @@ static void drop_passed_fd(qmcd_conn *c)
     c->passed_fd = -1;
 }
 
+/* The connection fails or closes: its producers, what it was lent (the
+ * ring, a descriptor) and its share of the pool go. */
+static void drop_work(qmcd_conn *c)
+{
+    qmcd_producers_drop_all(c);
+    for (unsigned i = 0; i < c->srv->n_modules; i++)
+        if (c->srv->modules[i]->conn_drop)
+            c->srv->modules[i]->conn_drop(c);
+    qmcd_pool_tenant_release(c->srv->pool, c->tenant);
+    c->tenant = NULL;
+    qmcd_ring_free(c->ring);
+    c->ring = NULL;
+    drop_passed_fd(c);
+}
+
 static void unlink_conn(qmcd_conn *c)
 {
     qmcd_server *srv = c->srv;
@@ -251,9 +269,7 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
     /* Ordinary goodbyes are debug; anything else is worth a line. */
     qmcd_log(strcmp(why, "peer closed") == 0 ? QMCD_LOG_DEBUG : QMCD_LOG_INFO,
              "conn %llu (%s): closed: %s", (unsigned long long)c->id, c->peer, why);
-    qmcd_points_drop_all(c);
-    qmcd_jobs_drop_all(c);
-    drop_passed_fd(c);
+    drop_work(c);
     qmcd_loop_del(srv, &c->w);
     close(c->w.fd);
     c->w.fd = -1;
@@ -279,7 +295,6 @@ void qmcd_conns_reap(qmcd_server *srv)
     while (srv->dead_conns) {
         qmcd_conn *c = srv->dead_conns;
         srv->dead_conns = c->next;
-        qmcd_auth_conn_free(c);
         free(c->in);
         free(c->out);
         set_out_alloc(c, 0);
@@ -319,9 +334,7 @@ void qmcd_conn_fail(qmcd_conn *c, uint64_t request_id, int code, const char *fmt
     qmcd_info("conn %llu (%s): closing: %s", (unsigned long long)c->id, c->peer, why);
     c->closing = 1;
     c->close_by_ms = qmcd_now_ms() + QMCD_LINGER_MS;
-    qmcd_points_drop_all(c);
-    qmcd_jobs_drop_all(c);
-    drop_passed_fd(c);
+    drop_work(c);
     c->in_len = 0;
     c->partial_ms = 0;
     qmcd_conn_kick(c);
@@ -523,13 +536,22 @@ static int flush(qmcd_conn *c)
     }
     c->out_head = c->out_tail = 0;
     c->stall_ms = 0;
-    if (c->out_alloc > (256u << 10) && c->n_streams == 0) {
+    if (c->out_alloc > (256u << 10) && c->n_bulk == 0) {
         /* The stream that needed a big buffer is over: give it back. */
         free(c->out);
         c->out = NULL;
         set_out_alloc(c, 0);
     }
     return 0;
+}
+
+/* When the client's ring filled up while a producer waits for one of its
+ * slots (write-timeout-ms runs from then), or 0. */
+static int64_t ring_stalled_ms(const qmcd_conn *c)
+{
+    if (!c->ring || !c->ring->full_ms)
+        return 0;
+    return qmcd_producers_waiting(c, QMCD_WAIT_RING) ? c->ring->full_ms : 0;
 }
 
 static void update_interest(qmcd_conn *c)
@@ -548,7 +570,7 @@ static void update_interest(qmcd_conn *c)
          * and streams waiting for out-buffer-total-bytes for memory to
          * come free (qmcd_conns_reap wakes them, the tick retries): a
          * writable socket alone would only spin the loop. */
-        int want = qmcd_points_want_output(c);
+        int want = qmcd_producers_waiting(c, QMCD_WAIT_NONE);
         if (want && !pending && short_of_global_memory(c)) {
             want = 0;
             if (!c->out_waiting) {
@@ -575,23 +597,22 @@ void qmcd_conn_kick(qmcd_conn *c)
             qmcd_conn_parse(c);
         if (c->dead)
             return;
-        /* Produce every frame that fits (each pump adds at most one frame
-         * per job or stream and only when it fits), then write them with
+        /* Produce every frame that fits (each turn adds at most one frame,
+         * and only when it fits), then write them with
          * one send: a pipeline of small answers is one syscall, not two
          * per request.  PRODUCE_LIMIT keeps one connection from holding
          * the loop. */
         for (int k = 0; k < PRODUCE_LIMIT && !c->closing && !c->dead; k++) {
-            int p = qmcd_jobs_pump(c);
-            p |= qmcd_points_pump(c);
+            int p = qmcd_producers_turn(c);
             if (!p)
                 break;
             produced = 1;
             /* Batching pays for small frames; a bulk chunk is a full send
              * by itself, and unsent bytes get moved when the next frame is
              * reserved - so stop once a batch is worth a send.  Ring
-             * chunks go out half a ring at a time (points.c): the client
+             * chunks go out half a ring at a time (ring.c): the client
              * reads one half while we fill the other. */
-            if ((p & QMCD_PUMP_FLUSH) || c->out_tail - c->out_head >= PRODUCE_BATCH_BYTES)
+            if ((p & QMCD_TURN_FLUSH) || c->out_tail - c->out_head >= PRODUCE_BATCH_BYTES)
                 break;
         }
         if (c->dead || flush(c) != 0)
@@ -607,12 +628,12 @@ void qmcd_conn_kick(qmcd_conn *c)
     }
     /* A peer that half-closed cannot release slots: a stream waiting for
      * one would wait forever. */
-    if (c->peer_eof && !c->closing && c->in_len == 0 && qmcd_points_ring_stalled_ms(c)) {
+    if (c->peer_eof && !c->closing && c->in_len == 0 && ring_stalled_ms(c)) {
         qmcd_conn_close(c, "peer closed while holding every ring slot");
         return;
     }
     /* A peer that half-closed gets its answers, then we close. */
-    if (c->peer_eof && !c->closing && c->n_streams == 0 && c->n_jobs == 0 &&
+    if (c->peer_eof && !c->closing && c->n_producers == 0 &&
         c->out_tail == c->out_head) {
         qmcd_conn_close(c, "peer closed");
         return;
@@ -669,7 +690,7 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
             qmcd_conn_close(c, "write-timeout-ms");
             continue;
         }
-        int64_t ring_ms = qmcd_points_ring_stalled_ms(c);
+        int64_t ring_ms = ring_stalled_ms(c);
         if (ring_ms && now - ring_ms >= (int64_t)cfg->write_timeout_ms) {
             srv->stats.conns_timed_out++;
             qmcd_warn("conn %llu (%s): no SHM_RELEASE for %llu ms with every ring slot held "
@@ -694,14 +715,14 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                            (unsigned long long)cfg->frame_timeout_ms);
             continue;
         }
-        if (c->n_streams == 0 && c->n_jobs == 0 && c->out_tail == c->out_head &&
+        if (c->n_producers == 0 && c->out_tail == c->out_head &&
             c->in_len == 0 && now - c->active_ms >= (int64_t)cfg->idle_timeout_ms) {
             srv->stats.conns_timed_out++;
             qmcd_conn_fail(c, 0, -ETIMEDOUT, "idle-timeout-ms: idle for %llu ms",
                            (unsigned long long)cfg->idle_timeout_ms);
             continue;
         }
-        qmcd_jobs_tick(c, now);
+        qmcd_producers_tick(c, now);
         if (!c->dead)
             qmcd_conn_kick(c);
     }
@@ -722,18 +743,70 @@ void qmcd_conns_close_idle(qmcd_server *srv)
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {
         next = c->next;
-        if (!c->closing && c->n_streams == 0 && c->n_jobs == 0 &&
+        if (!c->closing && c->n_producers == 0 &&
             c->out_tail == c->out_head)
             qmcd_conn_fail(c, 0, -ESHUTDOWN, "server shutting down");
     }
 }
 
-void qmcd_conns_close_streams(qmcd_server *srv, const char *why)
+void qmcd_conns_deadline(qmcd_server *srv, const char *why)
 {
     qmcd_conn *next;
     for (qmcd_conn *c = srv->conns; c; c = next) {
         next = c->next;
-        if (!c->closing && c->n_streams)
+        if (!c->closing && qmcd_producers_shutdown(c))
             qmcd_conn_fail(c, 0, -ESHUTDOWN, "%s", why);
     }
+}
+
+/* ---- facts for handlers and producers (conn_services.h) ---------------------------- */
+
+qmcd_server *qmcd_conn_server(const qmcd_conn *c)
+{
+    return c->srv;
+}
+
+uint64_t qmcd_conn_id(const qmcd_conn *c)
+{
+    return c->id;
+}
+
+int qmcd_conn_gone(const qmcd_conn *c)
+{
+    return c->dead || c->closing;
+}
+
+int qmcd_conn_is_unix(const qmcd_conn *c)
+{
+    return c->unix_socket;
+}
+
+unsigned qmcd_conn_version(const qmcd_conn *c)
+{
+    return c->version;
+}
+
+uint32_t qmcd_conn_client_max_frame(const qmcd_conn *c)
+{
+    return c->client_max_frame;
+}
+
+qmcd_ring *qmcd_conn_ring(const qmcd_conn *c)
+{
+    return c->ring;
+}
+
+void qmcd_conn_set_ring(qmcd_conn *c, qmcd_ring *r)
+{
+    c->ring = r;
+}
+
+int qmcd_conn_tenant(qmcd_conn *c, qmcd_pool_tenant **out)
+{
+    if (!c->tenant && qmcd_pool_tenant_new(c->srv->pool, &c->peer_key, &c->tenant) != 0) {
+        *out = NULL;
+        return -ENOMEM;
+    }
+    *out = c->tenant;
+    return 0;
 }

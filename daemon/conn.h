@@ -8,21 +8,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "conn_services.h"
 #include "peers.h"
 #include "qmc/proto.h"
 #include "server.h"
 
-typedef struct qmcd_stream qmcd_stream;
-typedef struct qmcd_job qmcd_job;
-typedef struct qmcd_ring qmcd_ring;
 typedef struct qmcd_auth_conn qmcd_auth_conn;
-typedef struct qmcd_pool_tenant qmcd_pool_tenant;
+typedef struct qmcd_producer qmcd_producer;
 
-/* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
- * JOB_RESULT): requests are read only while this much is free, and POINTS
- * chunks are generated only when they leave it free.  The largest small
- * answer (a STATS_REPLY of QMC_PROTO_MAX_STATS entries) is under 20 KiB. */
-#define QMCD_OUT_RESERVE (64u << 10)
 /* Output buffer every connection may allocate whatever the other
  * connections hold: room for the small answers (twice the reserve), so
  * HELLO, PING and STATS are served when out-buffer-total-bytes is spent.
@@ -71,14 +64,14 @@ struct qmcd_conn {
     int64_t partial_ms;          /* when the unfinished frame began, or 0 */
     int64_t stall_ms;            /* output pending and none written since, or 0 */
     int64_t close_by_ms;         /* closing: the linger deadline */
-    qmcd_stream *streams;        /* POINTS in progress, round robin */
-    unsigned n_streams;
-    qmcd_job *jobs;              /* INTEGRATE jobs not yet answered */
-    unsigned n_jobs;
+    qmcd_producer *producers;    /* requests answering over time, in turn order
+                                    (producer.h, producer.c) */
+    unsigned n_producers;        /* on that list */
+    unsigned n_bulk;             /* of them QMCD_PRODUCER_BULK */
     qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
     uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
     int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
-    qmcd_ring *ring;             /* the client's shared-memory ring (points.c),
+    qmcd_ring *ring;             /* the client's shared-memory ring (ring.h),
                                     or NULL */
     qmcd_auth_conn *auth;        /* a handshake awaiting AUTH_RESPONSE
                                     (auth.c), or NULL */
@@ -87,48 +80,14 @@ struct qmcd_conn {
 /* Accept handler for a listening socket's watch. */
 void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 
-/* Bytes that may still be queued for output under out-buffer-bytes. */
-size_t qmcd_conn_out_room(const qmcd_conn *c);
-
-/* align_at for frames with no alignment wish (all but POINTS data). */
-#define QMCD_NO_ALIGN ((size_t)-1)
-
-/*
- * Reserves `bytes` of output space whose byte at offset `align_at` lies on
- * a 64-byte boundary (so point data can be written in place with aligned
- * stores); returns where to write, or NULL when out-buffer-bytes would be
- * exceeded or memory is short.  qmcd_conn_out_commit then queues them.
- */
-uint8_t *qmcd_conn_out_reserve(qmcd_conn *c, size_t bytes, size_t align_at);
-void qmcd_conn_out_commit(qmcd_conn *c, size_t bytes);
-
-/* Encodes and queues one frame.  Returns 0, or -1 when the frame does not
- * fit (the connection is then closed: see conn.c). */
-int qmcd_conn_send(qmcd_conn *c, const qmc_msg *m);
-
-/* Queues an ERROR frame for request_id with a printf-style one-line
- * message.  Returns as qmcd_conn_send. */
-int qmcd_conn_error(qmcd_conn *c, uint64_t request_id, int code, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-
-/* ERROR then close: stops reading requests, drops the connection's work,
- * flushes, shuts down and closes within QMCD_LINGER_MS. */
-void qmcd_conn_fail(qmcd_conn *c, uint64_t request_id, int code, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-
-/* Closes at once (no goodbye): peer gone or not reading. */
-void qmcd_conn_close(qmcd_conn *c, const char *why);
-
-/* Flushes output, produces more (results, chunks) and updates the epoll
- * interest.  Call after anything queued output or freed room. */
-void qmcd_conn_kick(qmcd_conn *c);
-
 /* Loop housekeeping (see loop.c). */
 void qmcd_conns_tick(qmcd_server *srv, int64_t now_ms);
 void qmcd_conns_reap(qmcd_server *srv);
 void qmcd_conns_close_all(qmcd_server *srv, const char *why);
-/* Draining: closes connections with POINTS streams still going. */
-void qmcd_conns_close_streams(qmcd_server *srv, const char *why);
+/* Draining, at the deadline: tells every producer (a job cancels itself
+ * and answers ERROR), and closes the connections whose producers cannot
+ * end by themselves (streams), with why. */
+void qmcd_conns_deadline(qmcd_server *srv, const char *why);
 /* Draining: closes connections with nothing in flight. */
 void qmcd_conns_close_idle(qmcd_server *srv);
 

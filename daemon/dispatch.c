@@ -1,13 +1,16 @@
 /*
- * dispatch.c - routes each decoded request to its handler and answers the
- * small ones (HELLO, PING, STATS) at once; SHM_ATTACH and SHM_RELEASE go to
- * the ring in points.c, with the descriptor that came with SHM_ATTACH.
- * POINTS and INTEGRATE only start here; their answers come later, tagged with the request id, so many
- * requests can be in flight on one connection and answers may come back
- * out of order (PROTOCOL.md, pipelining).
+ * dispatch.c - routes each decoded request through the dispatch table (the
+ * rows every module of modules.h exports, by message type; producer.h) and
+ * answers the small ones of its own at once: HELLO, PING, STATS.  What a
+ * type is (a request answered under its id; one that starts a producer,
+ * refused while draining and past max-inflight; one that may carry a
+ * descriptor) is its row's, so the checks here hold for every module.
+ * Producers answer later, tagged with the request id, so many requests
+ * can be in flight on one connection and answers may come back out of
+ * order (PROTOCOL.md, pipelining).
  *
- * This file must not block, touch sockets directly, or generate points or
- * run jobs: conn.c queues frames, points.c and jobs.c do the work.
+ * This file must not block, touch sockets directly, or name a producer
+ * kind: conn.c queues frames, the modules do the work.
  */
 #include <errno.h>
 #include <string.h>
@@ -15,10 +18,10 @@
 
 #include "auth.h"
 #include "dispatch.h"
-#include "jobs.h"
 #include "log.h"
 #include "modbus_bridge.h"
-#include "points.h"
+#include "pool.h"
+#include "producer.h"
 #include "qmc/seq.h"
 
 /* HELLO: the highest version both sides speak (PROTOCOL.md section 4). */
@@ -29,32 +32,14 @@
  * every answer but a POINTS_CHUNK then fits. */
 #define MIN_CLIENT_FRAME 65536u
 
-/* The messages that are requests (answered under their id): every
- * client-to-server type but SHM_RELEASE and AUTH_RESPONSE. */
-static int is_request(qmc_msg_type t)
-{
-    switch (t) {
-    case QMC_MSG_HELLO:
-    case QMC_MSG_PING:
-    case QMC_MSG_POINTS:
-    case QMC_MSG_INTEGRATE:
-    case QMC_MSG_JOB_STATUS:
-    case QMC_MSG_JOB_CANCEL:
-    case QMC_MSG_STATS:
-    case QMC_MSG_SHM_ATTACH:
-        return 1;
-    default:
-        return 0;
-    }
-}
-
 static void record(qmcd_conn *c, int64_t t0_us)
 {
     qmcd_answered(c->srv, t0_us);
 }
 
-static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
+static void on_hello(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
 {
+    (void)fd;
     const qmc_msg_hello *h = &m->u.hello;
     if (c->hello_done || qmcd_auth_pending(c)) {
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "HELLO sent twice");
@@ -78,45 +63,24 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0)
      * HELLO_OK itself once the proof is good. */
     if (qmcd_auth_on_hello(c, m, t0))
         return;
-    qmcd_dispatch_hello_ok(
+    qmcd_auth_hello_ok(
         c, m->request_id,
         (uint16_t)(h->version_max < SERVER_VERSION_MAX ? h->version_max : SERVER_VERSION_MAX),
         h->max_frame, t0);
 }
 
-void qmcd_dispatch_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
-                            uint32_t client_max_frame, int64_t t0)
+static void on_ping(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
 {
-    c->hello_done = 1;
-    c->version = version;
-    c->client_max_frame = client_max_frame;
-    const qmcd_config *cfg = &c->srv->cfg;
-    static const char server[] = "qmcd", engine[] = "libqmc 0.1.0";
-    qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = request_id};
-    r.u.hello_ok.version = version;
-    r.u.hello_ok.max_frame = (uint32_t)cfg->max_frame;
-    c->server_max_frame = (uint32_t)cfg->max_frame;
-    r.u.hello_ok.max_inflight = (uint32_t)cfg->max_inflight;
-    r.u.hello_ok.max_points = cfg->max_points;
-    r.u.hello_ok.sobol_table_hash = c->srv->sobol_table_hash;
-    r.u.hello_ok.server.ptr = server;
-    r.u.hello_ok.server.len = sizeof server - 1;
-    r.u.hello_ok.engine.ptr = engine;
-    r.u.hello_ok.engine.len = sizeof engine - 1;
-    if (qmcd_conn_send(c, &r) == 0)
-        record(c, t0);
-}
-
-static void on_ping(qmcd_conn *c, const qmc_msg *m, int64_t t0)
-{
+    (void)fd;
     qmc_msg r = {.type = QMC_MSG_PONG, .request_id = m->request_id};
     r.u.ping.data = m->u.ping.data;
     if (qmcd_conn_send(c, &r) == 0)
         record(c, t0);
 }
 
-static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
+static void on_stats(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
 {
+    (void)fd;
     qmcd_server *srv = c->srv;
     qmc_stat entries[QMC_PROTO_MAX_STATS];
     qmc_msg r = {.type = QMC_MSG_STATS_REPLY, .request_id = m->request_id};
@@ -135,12 +99,26 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int64_t t0)
         record(c, t0);
 }
 
+const qmcd_module qmcd_basic_module = {
+    .name = "basic",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_HELLO, QMCD_ROUTE_REQUEST, on_hello},
+        {QMC_MSG_PING, QMCD_ROUTE_REQUEST, on_ping},
+        {QMC_MSG_STATS, QMCD_ROUTE_REQUEST, on_stats},
+        {0, 0, NULL},
+    },
+};
+
 void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     qmcd_server *srv = c->srv;
     srv->stats.requests[m->type & 31]++;
-    /* conn.c passes descriptors only with SHM_ATTACH; close any other. */
-    if (fd >= 0 && (m->type != QMC_MSG_SHM_ATTACH || !c->hello_done)) {
+    /* No row: a server-to-client type (the decoder knows no others). */
+    const qmcd_route *row = (unsigned)m->type < QMCD_ROUTE_TYPES ? srv->routes[m->type] : NULL;
+    const unsigned flags = row ? row->flags : 0;
+    /* conn_read.c passes a descriptor only with a type whose row takes
+     * one; close any other. */
+    if (fd >= 0 && (!(flags & QMCD_ROUTE_FD) || !c->hello_done)) {
         close(fd);
         fd = -1;
     }
@@ -152,7 +130,9 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     }
     /* Id 0 is the connection's (PROTOCOL.md section 3): an answer carrying
      * it could not be told from a connection error. */
-    if (m->request_id == 0 && is_request(m->type)) {
+    if (m->request_id == 0 && (flags & QMCD_ROUTE_REQUEST)) {
+        if (fd >= 0)
+            close(fd);
         srv->stats.malformed++;
         qmcd_conn_fail(c, 0, QMC_EPROTO, "%s with request id 0; id 0 is reserved for the "
                        "connection", qmc_msg_type_name(m->type));
@@ -161,65 +141,37 @@ void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     /* An id already in flight (section 3): the ERROR is that id's final
      * answer, so it ends the request in flight as well, whatever the new
      * request is. */
-    if (is_request(m->type) &&
-        (qmcd_points_has_request(c, m->request_id) ||
-         qmcd_jobs_has_request(c, m->request_id))) {
-        qmcd_points_end_request(c, m->request_id);
-        qmcd_jobs_end_request(c, m->request_id);
+    qmcd_producer *in_flight =
+        (flags & QMCD_ROUTE_REQUEST) ? qmcd_producers_find(c, m->request_id) : NULL;
+    if (in_flight) {
+        if (fd >= 0)
+            close(fd);
+        qmcd_producers_end(c, in_flight, QMCD_END_ENDED);
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,
                         "request id %llu is already in flight on this connection; this ERROR "
                         "ends both requests", (unsigned long long)m->request_id);
         return;
     }
-    switch (m->type) {
-    case QMC_MSG_HELLO:
-        on_hello(c, m, t0_us);
-        return;
-    case QMC_MSG_AUTH_RESPONSE:
-        qmcd_auth_on_response(c, m, t0_us);
-        return;
-    case QMC_MSG_PING:
-        on_ping(c, m, t0_us);
-        return;
-    case QMC_MSG_STATS:
-        on_stats(c, m, t0_us);
-        return;
-    case QMC_MSG_JOB_STATUS:
-        qmcd_jobs_status(c, m, t0_us);
-        return;
-    case QMC_MSG_JOB_CANCEL:
-        qmcd_jobs_cancel(c, m, t0_us);
-        return;
-    case QMC_MSG_SHM_ATTACH:
-        qmcd_points_shm_attach(c, m, fd, t0_us);
-        return;
-    case QMC_MSG_SHM_RELEASE:
-        qmcd_points_shm_release(c, m);
-        return;
-    case QMC_MSG_POINTS:
-    case QMC_MSG_INTEGRATE:
-        break;
-    default:
-        /* A server-to-client type: well-formed, but the peer is confused
-         * about which side it is on. */
+    if (!row) {
+        /* Well-formed, but the peer is confused about which side it is on. */
         srv->stats.malformed++;
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "%s is sent by servers, not clients",
                        qmc_msg_type_name(m->type));
         return;
     }
-    if (srv->draining) {
-        qmcd_conn_error(c, m->request_id, -ESHUTDOWN,
-                        "server shutting down: no new requests accepted");
-        return;
-    }
-    if (c->n_streams + c->n_jobs >= srv->cfg.max_inflight) {
+    if ((flags & QMCD_ROUTE_STARTS) &&
+        (srv->draining || c->n_producers >= srv->cfg.max_inflight)) {
+        if (fd >= 0)
+            close(fd);
+        if (srv->draining) {
+            qmcd_conn_error(c, m->request_id, -ESHUTDOWN,
+                            "server shutting down: no new requests accepted");
+            return;
+        }
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-inflight: %llu requests already in flight on this connection",
                         (unsigned long long)srv->cfg.max_inflight);
         return;
     }
-    if (m->type == QMC_MSG_POINTS)
-        qmcd_points_start(c, m, t0_us);
-    else
-        qmcd_jobs_integrate(c, m, t0_us);
+    row->fn(c, m, fd, t0_us);
 }

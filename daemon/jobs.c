@@ -22,25 +22,35 @@
  * loop then answers JOB_RESULT or ERROR, tagged with the INTEGRATE's
  * request id.  Runner threads never touch connections, sockets or the
  * loop's state; the loop never runs blocks.
+ *
+ * On its connection a job is a producer (producer.h): it waits on its
+ * worker (QMCD_WAIT_WORK), and its pump answers once the worker is done.
+ * INTEGRATE, JOB_STATUS and JOB_CANCEL reach it through the rows of
+ * qmcd_jobs_module; the connection only through conn_services.h.
  */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <unistd.h>
 
-#include "jobs.h"
+#include "conn_services.h"
 #include "log.h"
+#include "loop.h"
+#include "modules.h"
 #include "pool.h"
 
 enum { CANCEL_NONE = 0, CANCEL_CLIENT, CANCEL_TIMEOUT, CANCEL_SHUTDOWN, CANCEL_GONE };
 
-struct qmcd_job {
+typedef struct job {
     qmcd_pool_task task;         /* first: the pool hands &job->task back */
-    qmcd_job *conn_next;         /* loop: the connection's unanswered jobs */
+    qmcd_producer p;             /* loop: one producer of its connection until
+                                    answered (producer.h) */
     qmcd_conn *conn;             /* loop: NULL once the connection is gone */
-    uint64_t id, request_id;
+    uint64_t id;
     uint32_t progress_ms;
     int64_t t0_us;               /* request decoded (latency) */
     int64_t last_progress_ms;
@@ -61,7 +71,12 @@ struct qmcd_job {
     double reference;            /* qmc_job_reference, taken on the worker */
     int reference_kind;          /* 0 none, 1 exact, 2 high-accuracy */
     int finished;                /* loop: the worker is done with it */
-};
+} job;
+
+/* The job whose producer p is. */
+#define JOB_OF(prod) ((job *)(void *)((char *)(prod) - offsetof(job, p)))
+
+static const qmcd_producer_kind job_kind;
 
 /* ---- the block runner (worker threads) ------------------------------------------ */
 
@@ -72,7 +87,7 @@ static int64_t wall_ms(void)
 
 /* 1 when the job must stop: cancelled, or past its time limit (which we
  * turn into a cancel so every thread of the job sees it). */
-static int must_stop(qmcd_job *j)
+static int must_stop(job *j)
 {
     if (atomic_load(&j->cancel) != CANCEL_NONE)
         return 1;
@@ -99,7 +114,7 @@ enum { POLL_CLOCK_EVERY = 16 };
  * every POLL_CLOCK_EVERY-th. */
 static int job_interrupt(void *ctx)
 {
-    qmcd_job *j = ctx;
+    job *j = ctx;
     if (atomic_load(&j->cancel) != CANCEL_NONE)
         return 1;
     if (++j->polls % POLL_CLOCK_EVERY != 0)
@@ -118,13 +133,13 @@ static int stop_cb(void *ctx)
 /* Pool mutex held: only atomics. */
 static int task_must_stop(qmcd_pool_task *task)
 {
-    return atomic_load(&((qmcd_job *)task)->cancel) != CANCEL_NONE;
+    return atomic_load(&((job *)task)->cancel) != CANCEL_NONE;
 }
 
 static int run_blocks(void *ctx, const qmc_sampling_job *sj, uint64_t first, uint64_t count,
                       qmc_sampling_sums *out)
 {
-    qmcd_job *j = ctx;
+    job *j = ctx;
     return qmcd_pool_run_blocks(&j->task, sj, first, count, out, stop_cb, j, &j->evals);
 }
 
@@ -137,7 +152,7 @@ static double seconds_since(int64_t start_ms)
 
 static void run_job(qmcd_pool_task *task)
 {
-    qmcd_job *j = (qmcd_job *)task;
+    job *j = (job *)task;
     atomic_store(&j->start_ms, (long long)wall_ms());
     if (must_stop(j)) {
         j->err = -ECANCELED;
@@ -166,7 +181,7 @@ static void run_job(qmcd_pool_task *task)
 
 /* ---- loop side --------------------------------------------------------------------- */
 
-static void job_free(qmcd_job *j)
+static void job_free(job *j)
 {
     qmc_job_free(j->job);
     free(j);
@@ -174,38 +189,21 @@ static void job_free(qmcd_job *j)
 
 static void task_free(qmcd_pool_task *task)
 {
-    job_free((qmcd_job *)task);
+    job_free((job *)task);
 }
 
-static void unlink_job(qmcd_conn *c, qmcd_job *j)
+/* c's unanswered job with job id `id`, or NULL. */
+static job *find_job(qmcd_conn *c, uint64_t id)
 {
-    for (qmcd_job **link = &c->jobs; *link; link = &(*link)->conn_next)
-        if (*link == j) {
-            *link = j->conn_next;
-            c->n_jobs--;
-            return;
-        }
-}
-
-static qmcd_job *find_job(qmcd_conn *c, uint64_t id)
-{
-    for (qmcd_job *j = c->jobs; j; j = j->conn_next)
-        if (j->id == id)
-            return j;
+    for (qmcd_producer *p = qmcd_producer_first(c); p; p = p->next)
+        if (p->kind == &job_kind && JOB_OF(p)->id == id)
+            return JOB_OF(p);
     return NULL;
 }
 
-int qmcd_jobs_has_request(const qmcd_conn *c, uint64_t request_id)
-{
-    for (const qmcd_job *j = c->jobs; j; j = j->conn_next)
-        if (j->request_id == request_id)
-            return 1;
-    return 0;
-}
-
 /* Detaches j from its connection unanswered: a running job is told to
- * stop and freed by qmcd_jobs_on_done, a finished one now. */
-static void detach(qmcd_job *j)
+ * stop and freed by on_done, a finished one now. */
+static void detach(job *j)
 {
     if (j->finished) {
         job_free(j);
@@ -214,17 +212,6 @@ static void detach(qmcd_job *j)
     int none = CANCEL_NONE;
     atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_GONE);
     j->conn = NULL;
-}
-
-void qmcd_jobs_end_request(qmcd_conn *c, uint64_t request_id)
-{
-    for (qmcd_job *j = c->jobs; j; j = j->conn_next)
-        if (j->request_id == request_id) {
-            unlink_job(c, j);
-            c->srv->stats.jobs_cancelled++;
-            detach(j);
-            return;
-        }
 }
 
 /* Copies a decoded list (raw little-endian bytes) into doubles. */
@@ -236,11 +223,14 @@ static double *copy_list(const qmc_f64s *l)
     return v;
 }
 
-void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+/* INTEGRATE: validates the job, answers JOB_ACCEPTED and submits it, or
+ * answers ERROR. */
+static void on_integrate(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
-    qmcd_server *srv = c->srv;
+    (void)fd;
+    qmcd_server *srv = qmcd_conn_server(c);
     const qmc_msg_integrate *g = &m->u.integrate;
-    if (c->n_jobs >= srv->cfg.max_jobs_per_conn) {
+    if (qmcd_producer_count(c, &job_kind) >= srv->cfg.max_jobs_per_conn) {
         srv->stats.jobs_conn_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-jobs-per-conn: %llu jobs already open on this connection",
@@ -254,14 +244,15 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
                         (unsigned long long)srv->cfg.max_jobs);
         return;
     }
-    if (!c->tenant && qmcd_pool_tenant_new(srv->pool, &c->peer_key, &c->tenant) != 0) {
+    qmcd_pool_tenant *tenant;
+    if (qmcd_conn_tenant(c, &tenant) != 0) {
         qmcd_conn_error(c, m->request_id, QMC_ENOMEM, "out of memory");
         return;
     }
     qmc_job_spec spec = g->spec;
     double *a = g->a.count ? copy_list(&g->a) : NULL;
     double *u = g->u.count ? copy_list(&g->u) : NULL;
-    qmcd_job *j = calloc(1, sizeof *j);
+    job *j = calloc(1, sizeof *j);
     char why[256] = "";
     int err = (g->a.count && !a) || (g->u.count && !u) || !j ? QMC_ENOMEM : 0;
     if (!err) {
@@ -285,7 +276,6 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     j->task.free_fn = task_free;
     j->task.must_stop = task_must_stop;
     j->id = ++srv->next_job_id;
-    j->request_id = m->request_id;
     j->progress_ms = g->progress_ms;
     j->t0_us = t0_us;
     j->last_progress_ms = qmcd_now_ms();
@@ -324,17 +314,16 @@ void qmcd_jobs_integrate(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         job_free(j);
         return;
     }
-    j->conn_next = c->jobs;
-    c->jobs = j;
-    c->n_jobs++;
+    qmcd_producer_attach(c, &j->p, &job_kind, m->request_id);
     srv->n_jobs++;
     srv->stats.jobs_accepted++;
-    qmcd_debug("conn %llu: job %llu accepted (%s, %u dims)", (unsigned long long)c->id,
-               (unsigned long long)j->id, qmc_method_name(j->spec.method), g->spec.dims);
-    qmcd_pool_submit(srv->pool, c->tenant, &j->task);
+    qmcd_debug("conn %llu: job %llu accepted (%s, %u dims)",
+               (unsigned long long)qmcd_conn_id(c), (unsigned long long)j->id,
+               qmc_method_name(j->spec.method), g->spec.dims);
+    qmcd_pool_submit(srv->pool, tenant, &j->task);
 }
 
-static void job_state_msg(const qmcd_job *j, uint64_t request_id, qmc_msg *r)
+static void job_state_msg(const job *j, uint64_t request_id, qmc_msg *r)
 {
     memset(r, 0, sizeof *r);
     r->type = QMC_MSG_JOB_STATE;
@@ -353,9 +342,10 @@ static void send_unknown(qmcd_conn *c, const qmc_msg *m)
     qmcd_conn_send(c, &r);
 }
 
-void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+static void on_status(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
-    qmcd_job *j = find_job(c, m->u.job.job_id);
+    (void)fd;
+    job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);
     } else {
@@ -363,46 +353,23 @@ void qmcd_jobs_status(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
         job_state_msg(j, m->request_id, &r);
         qmcd_conn_send(c, &r);
     }
-    qmcd_answered(c->srv, t0_us);
+    qmcd_answered(qmcd_conn_server(c), t0_us);
 }
 
-/* max-cancels-per-conn: a bucket of that many JOB_CANCELs, refilled at
- * that many a minute.  Cancels are cheap, but they make INTEGRATE churn
- * cheap too (build a job, cancel it, again): this bounds the churn rate
- * per connection.  Tokens are kept in 1/60000ths so that the refill is
- * exact in whole milliseconds.  Returns 1 when this cancel may go on. */
-static int cancel_allowed(qmcd_conn *c)
+static void on_cancel(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
-    const uint64_t cap = c->srv->cfg.max_cancels_per_conn;
-    const uint64_t full = cap * 60000u;
-    int64_t now = qmcd_now_ms();
-    if (c->cancel_refill_ms == 0) {
-        c->cancel_tokens = full;
-    } else if (now > c->cancel_refill_ms) {
-        uint64_t add = (uint64_t)(now - c->cancel_refill_ms) * cap;
-        c->cancel_tokens = full - c->cancel_tokens <= add ? full : c->cancel_tokens + add;
-    }
-    if (c->cancel_tokens > full) /* the limit shrank on SIGHUP */
-        c->cancel_tokens = full;
-    c->cancel_refill_ms = now;
-    if (c->cancel_tokens < 60000u)
-        return 0;
-    c->cancel_tokens -= 60000u;
-    return 1;
-}
-
-void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
-{
-    if (!cancel_allowed(c)) {
-        c->srv->stats.cancel_refusals++;
+    (void)fd;
+    qmcd_server *srv = qmcd_conn_server(c);
+    if (!qmcd_producer_cancel_allowed(c)) {
+        srv->stats.cancel_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
                         "max-cancels-per-conn: more than %llu JOB_CANCEL a minute on this "
                         "connection; cancel less often",
-                        (unsigned long long)c->srv->cfg.max_cancels_per_conn);
-        qmcd_answered(c->srv, t0_us);
+                        (unsigned long long)srv->cfg.max_cancels_per_conn);
+        qmcd_answered(srv, t0_us);
         return;
     }
-    qmcd_job *j = find_job(c, m->u.job.job_id);
+    job *j = find_job(c, m->u.job.job_id);
     if (!j) {
         send_unknown(c, m);
     } else {
@@ -415,47 +382,47 @@ void qmcd_jobs_cancel(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
             job_state_msg(j, m->request_id, &r);
             r.u.state.state = QMC_JOB_CANCELLED;
             if (atomic_load(&j->start_ms) == 0)
-                qmcd_pool_cancelled(c->srv->pool); /* queued: start it to answer */
+                qmcd_pool_cancelled(srv->pool); /* queued: start it to answer */
         } else {
             job_state_msg(j, m->request_id, &r);
         }
         qmcd_conn_send(c, &r);
     }
-    qmcd_answered(c->srv, t0_us);
+    qmcd_answered(srv, t0_us);
 }
 
 /* Queues the final answer of a finished job.  Returns 0, or -1 without
  * room (the pump retries). */
-static int answer(qmcd_conn *c, qmcd_job *j)
+static int answer(qmcd_conn *c, job *j)
 {
     if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE / 2)
         return -1;
-    qmcd_server *srv = c->srv;
+    qmcd_server *srv = qmcd_conn_server(c);
     int cancel = atomic_load(&j->cancel);
     int rc;
     if (cancel == CANCEL_TIMEOUT) {
         /* A failure like any other (jobs_failed), counted apart too. */
         srv->stats.jobs_timed_out++;
         srv->stats.jobs_failed++;
-        rc = qmcd_conn_error(c, j->request_id, -ETIMEDOUT,
+        rc = qmcd_conn_error(c, j->p.request_id, -ETIMEDOUT,
                              "job-time-limit-ms: job %llu ran past %llu ms and was cancelled",
                              (unsigned long long)j->id, (unsigned long long)j->time_limit_ms);
     } else if (cancel == CANCEL_CLIENT) {
         srv->stats.jobs_cancelled++;
-        rc = qmcd_conn_error(c, j->request_id, -ECANCELED, "job %llu cancelled by JOB_CANCEL",
+        rc = qmcd_conn_error(c, j->p.request_id, -ECANCELED, "job %llu cancelled by JOB_CANCEL",
                              (unsigned long long)j->id);
     } else if (cancel != CANCEL_NONE) {
         srv->stats.jobs_cancelled++;
-        rc = qmcd_conn_error(c, j->request_id, -ESHUTDOWN,
+        rc = qmcd_conn_error(c, j->p.request_id, -ESHUTDOWN,
                              "job %llu cancelled: the server is shutting down",
                              (unsigned long long)j->id);
     } else if (j->err) {
         srv->stats.jobs_failed++;
-        rc = qmcd_conn_error(c, j->request_id, j->err, "%s",
+        rc = qmcd_conn_error(c, j->p.request_id, j->err, "%s",
                              j->why[0] ? j->why : qmc_strerror(j->err));
     } else {
         srv->stats.jobs_done++;
-        qmc_msg r = {.type = QMC_MSG_JOB_RESULT, .request_id = j->request_id};
+        qmc_msg r = {.type = QMC_MSG_JOB_RESULT, .request_id = j->p.request_id};
         qmc_msg_job_result *res = &r.u.result;
         res->job_id = j->id;
         res->res = j->rep.res;
@@ -476,26 +443,25 @@ static int answer(qmcd_conn *c, qmcd_job *j)
     return 0; /* sent, or the connection is gone: either way it is done */
 }
 
-int qmcd_jobs_pump(qmcd_conn *c)
+/* The producer's pump: the final answer once the worker is done. */
+static int job_pump(qmcd_conn *c, qmcd_producer *p)
 {
-    int sent = 0;
-    qmcd_job *next;
-    for (qmcd_job *j = c->jobs; j && !c->dead; j = next) {
-        next = j->conn_next;
-        if (!j->finished)
-            continue;
-        if (answer(c, j) != 0)
-            break;
-        if (c->dead)
-            break; /* closing dropped and freed the jobs already */
-        unlink_job(c, j);
-        job_free(j);
-        sent = 1;
-    }
-    return sent;
+    job *j = JOB_OF(p);
+    if (!j->finished)
+        return QMCD_PUMP_WAIT; /* on_done kicks the connection */
+    if (answer(c, j) != 0)
+        return QMCD_PUMP_NO_ROOM;
+    return QMCD_PUMP_DONE; /* sent, or the connection is gone */
 }
 
-void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
+static qmcd_wait job_waiting(const qmcd_conn *c, const qmcd_producer *p)
+{
+    (void)c;
+    return JOB_OF(p)->finished ? QMCD_WAIT_NONE : QMCD_WAIT_WORK;
+}
+
+/* The pool's eventfd watch: finished jobs come back to the loop here. */
+static void on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
 {
     (void)events;
     uint64_t n;
@@ -503,7 +469,7 @@ void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         qmcd_warn("eventfd read: %s", strerror(errno));
     qmcd_pool_task *done = qmcd_pool_take_done(srv->pool);
     while (done) {
-        qmcd_job *j = (qmcd_job *)done;
+        job *j = (job *)done;
         done = done->next;
         j->finished = 1;
         srv->n_jobs--;
@@ -517,58 +483,93 @@ void qmcd_jobs_on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     }
 }
 
-void qmcd_jobs_tick(qmcd_conn *c, int64_t now)
+/* Per tick: the time limit, and JOB_PROGRESS. */
+static void job_tick(qmcd_conn *c, qmcd_producer *p, int64_t now)
 {
-    for (qmcd_job *j = c->jobs; j; j = j->conn_next) {
-        if (j->finished)
-            continue;
-        long long start = atomic_load(&j->start_ms);
-        if (start && now - start >= (int64_t)j->time_limit_ms) {
-            int none = CANCEL_NONE;
-            atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_TIMEOUT);
-        }
-        if (j->progress_ms && start && atomic_load(&j->cancel) == CANCEL_NONE &&
-            now - j->last_progress_ms >= (int64_t)j->progress_ms &&
-            qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE) {
-            /* Advisory: skipped rather than queued when output is short. */
-            qmc_msg r = {.type = QMC_MSG_JOB_PROGRESS, .request_id = j->request_id};
-            r.u.progress.job_id = j->id;
-            r.u.progress.evals = atomic_load(&j->evals);
-            r.u.progress.seconds = (double)(now - start) / 1000.0;
-            j->last_progress_ms = now;
-            if (qmcd_conn_send(c, &r) != 0)
-                return;
-        }
+    job *j = JOB_OF(p);
+    if (j->finished)
+        return;
+    long long start = atomic_load(&j->start_ms);
+    if (start && now - start >= (int64_t)j->time_limit_ms) {
+        int none = CANCEL_NONE;
+        atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_TIMEOUT);
+    }
+    if (j->progress_ms && start && atomic_load(&j->cancel) == CANCEL_NONE &&
+        now - j->last_progress_ms >= (int64_t)j->progress_ms &&
+        qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE) {
+        /* Advisory: skipped rather than queued when output is short. */
+        qmc_msg r = {.type = QMC_MSG_JOB_PROGRESS, .request_id = j->p.request_id};
+        r.u.progress.job_id = j->id;
+        r.u.progress.evals = atomic_load(&j->evals);
+        r.u.progress.seconds = (double)(now - start) / 1000.0;
+        j->last_progress_ms = now;
+        (void)qmcd_conn_send(c, &r);
     }
 }
 
-void qmcd_jobs_drop_all(qmcd_conn *c)
+/* The shutdown deadline: the job is cancelled, and its client still gets
+ * the ERROR when it stops. */
+static int job_shutdown(qmcd_conn *c, qmcd_producer *p)
 {
-    int queued = 0;
-    qmcd_pool_tenant_release(c->srv->pool, c->tenant);
-    c->tenant = NULL;
-    while (c->jobs) {
-        qmcd_job *j = c->jobs;
-        c->jobs = j->conn_next;
-        c->n_jobs--;
-        /* Accepted and never answered: neither done, failed nor
-         * cancelled, so STATS counts it here (jobs_accepted = done +
-         * failed + cancelled + dropped once none is open). */
-        c->srv->stats.jobs_dropped++;
-        if (!j->finished)
-            queued |= atomic_load(&j->start_ms) == 0;
+    job *j = JOB_OF(p);
+    int none = CANCEL_NONE;
+    atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_SHUTDOWN);
+    qmcd_pool_cancelled(qmcd_conn_server(c)->pool); /* a queued one starts, to answer */
+    return 0;
+}
+
+static void job_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
+{
+    job *j = JOB_OF(p);
+    qmcd_server *srv = qmcd_conn_server(c);
+    int queued;
+    switch (why) {
+    case QMCD_END_DONE:
+    case QMCD_END_FAILED:
+        job_free(j); /* answered */
+        return;
+    case QMCD_END_ENDED:
+        /* Its id was reused: the ERROR that says so ends it. */
+        srv->stats.jobs_cancelled++;
         detach(j);
+        return;
+    case QMCD_END_DROPPED:
+        /* Accepted and never answered: neither done, failed nor cancelled,
+         * so STATS counts it here (jobs_accepted = done + failed +
+         * cancelled + dropped once none is open). */
+        srv->stats.jobs_dropped++;
+        queued = !j->finished && atomic_load(&j->start_ms) == 0;
+        detach(j);
+        if (queued)
+            qmcd_pool_cancelled(srv->pool); /* let it end now, not in turn */
+        return;
     }
-    if (queued)
-        qmcd_pool_cancelled(c->srv->pool); /* let them end now, not in turn */
 }
 
-void qmcd_jobs_cancel_all(qmcd_server *srv)
+static const qmcd_producer_kind job_kind = {
+    .name = "job",
+    .pump = job_pump,
+    .waiting = job_waiting,
+    .tick = job_tick,
+    .shutdown = job_shutdown,
+    .release = job_release,
+};
+
+/* The pool's finished jobs come back through its eventfd, on the loop. */
+static int jobs_open(qmcd_server *srv)
 {
-    for (qmcd_conn *c = srv->conns; c; c = c->next)
-        for (qmcd_job *j = c->jobs; j; j = j->conn_next) {
-            int none = CANCEL_NONE;
-            atomic_compare_exchange_strong(&j->cancel, &none, CANCEL_SHUTDOWN);
-        }
-    qmcd_pool_cancelled(srv->pool);
+    srv->done.fd = qmcd_pool_eventfd(srv->pool);
+    srv->done.on_event = on_done;
+    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
 }
+
+const qmcd_module qmcd_jobs_module = {
+    .name = "jobs",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_INTEGRATE, QMCD_ROUTE_REQUEST | QMCD_ROUTE_STARTS, on_integrate},
+        {QMC_MSG_JOB_STATUS, QMCD_ROUTE_REQUEST, on_status},
+        {QMC_MSG_JOB_CANCEL, QMCD_ROUTE_REQUEST, on_cancel},
+        {0, 0, NULL},
+    },
+    .open = jobs_open,
+};

@@ -31,32 +31,11 @@
 #include <unistd.h>
 
 #include "conn.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
 #include "main.h"
 #include "modbus_bridge.h"
-
-int64_t qmcd_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
-void qmcd_answered(qmcd_server *srv, int64_t t0_us)
-{
-    if (qmcd_stats_answered(&srv->stats, t0_us))
-        qmcd_stats_end_turn(&srv->stats, qmcd_now_us());
-}
-
-int64_t qmcd_now_us(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
-}
 
 int qmcd_loop_add(qmcd_server *srv, qmcd_watch *w, uint32_t events)
 {
@@ -127,8 +106,7 @@ static void drain_step(qmcd_server *srv, int64_t now)
         if (srv->n_jobs)
             qmcd_warn("shutdown deadline: cancelling %llu job(s)",
                       (unsigned long long)srv->n_jobs);
-        qmcd_jobs_cancel_all(srv);
-        qmcd_conns_close_streams(srv, "server shutting down: stream cut");
+        qmcd_conns_deadline(srv, "server shutting down: stream cut");
     }
     if (now >= srv->drain_deadline_ms + 1000)
         qmcd_conns_close_all(srv, "server shutting down");
@@ -182,7 +160,7 @@ static void watchdog_init(qmcd_server *srv)
     qmcd_info("systemd watchdog: WATCHDOG=1 every %lld ms", (long long)srv->watchdog_ms);
 }
 
-int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
+int qmcd_loop_init(qmcd_server *srv)
 {
     int err;
     srv->sig.fd = srv->tick.fd = -1;
@@ -213,9 +191,7 @@ int qmcd_loop_init(qmcd_server *srv, int pool_eventfd)
     if ((err = qmcd_loop_add(srv, &srv->tick, EPOLLIN)) != 0)
         return err;
     watchdog_init(srv);
-    srv->done.fd = pool_eventfd;
-    srv->done.on_event = qmcd_jobs_on_done;
-    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
+    return 0;
 }
 
 void qmcd_loop_close(qmcd_server *srv)

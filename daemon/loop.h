@@ -6,10 +6,10 @@
 
 #include "server.h"
 
-/* Creates the epoll instance, the signalfd (SIGTERM, SIGINT, SIGHUP), the
- * timer tick and the pool's eventfd watch.  Signals must already be
- * blocked.  Returns 0 or -errno. */
-int qmcd_loop_init(qmcd_server *srv, int pool_eventfd);
+/* Creates the epoll instance, the signalfd (SIGTERM, SIGINT, SIGHUP) and
+ * the timer tick.  Signals must already be blocked.  Returns 0 or
+ * -errno. */
+int qmcd_loop_init(qmcd_server *srv);
 void qmcd_loop_close(qmcd_server *srv);
 
 /* Registers w for events (EPOLLIN/EPOLLOUT...), changes or removes it.

@@ -26,14 +26,14 @@
 
 #include "auth.h"
 #include "conn.h"
-#include "jobs.h"
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
 #include "main.h"
 #include "modbus_bridge.h"
+#include "modules.h"
 #include "peers.h"
-#include "points.h"
+#include "pool.h"
 
 void qmcd_main_notify(qmcd_server *srv, const char *state)
 {
@@ -288,11 +288,16 @@ int main(int argc, char **argv)
         qmcd_pool_set_overtakes(srv.pool, (unsigned)srv.cfg.job_memory_overtakes);
     }
     if (!err)
-        err = qmcd_seqcache_new(&srv.seqs);
-    if (!err)
         err = qmcd_peers_new(&srv.peers);
     if (!err)
-        err = qmcd_loop_init(&srv, qmcd_pool_eventfd(srv.pool));
+        err = qmcd_loop_init(&srv);
+    /* The request modules (modules.h) after the loop: some watch a
+     * descriptor. */
+    if (!err && qmcd_modules_open(&srv, why, sizeof why) != 0) {
+        qmcd_err("cannot start: %s", why);
+        rc = 1;
+        goto out;
+    }
     if (!err)
         err = qmcd_listeners_start(&srv);
     if (!err) /* after the fork: the serial threads start here */
@@ -327,8 +332,8 @@ out:
         qmcd_conn_close(srv.conns, "exiting");
     qmcd_conns_reap(&srv);
     qmcd_modbus_close(&srv);
+    qmcd_modules_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
-    qmcd_seqcache_free(srv.seqs);
     qmcd_peers_free(srv.peers);
     qmcd_loop_close(&srv);
     free(srv.listeners);

@@ -27,6 +27,10 @@
  * share them through a small cache keyed by spec, reference-counted;
  * at most CACHE_IDLE unused instances are kept.
  *
+ * On its connection a stream is a producer (producer.h) of the bulk kind;
+ * POINTS reaches it through the row of qmcd_points_module, and it reaches
+ * the connection only through conn_services.h.
+ *
  * This file must not read sockets or decide connection policy (conn.c).
  */
 #define _GNU_SOURCE
@@ -35,8 +39,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "conn_services.h"
 #include "log.h"
-#include "points.h"
+#include "modules.h"
 #include "ring.h"
 
 #define CACHE_IDLE 8
@@ -56,9 +61,9 @@ struct qmcd_seqcache {
     uint64_t bytes;              /* estimated table bytes of all entries */
 };
 
-struct qmcd_stream {
-    qmcd_stream *next;
-    uint64_t request_id;
+/* A POINTS stream: one producer (producer.h) of the connection. */
+typedef struct stream {
+    qmcd_producer p;             /* first: the connection's list holds &s->p */
     seq_entry *seq;
     qmc_format format;
     uint64_t next_index, end;
@@ -67,16 +72,21 @@ struct qmcd_stream {
     uint32_t chunk_points;       /* whole points per chunk */
     int shm;                     /* 1: through the connection's ring */
     int64_t t0_us;
-};
+} stream;
 
-int qmcd_seqcache_new(qmcd_seqcache **out)
+static const qmcd_producer_kind stream_kind;
+
+/* The cache lives with the server (the module's open and close). */
+static int points_open(qmcd_server *srv)
 {
-    *out = calloc(1, sizeof **out);
-    return *out ? 0 : -ENOMEM;
+    srv->seqs = calloc(1, sizeof *srv->seqs);
+    return srv->seqs ? 0 : -ENOMEM;
 }
 
-void qmcd_seqcache_free(qmcd_seqcache *cache)
+static void points_close(qmcd_server *srv)
 {
+    qmcd_seqcache *cache = srv->seqs;
+    srv->seqs = NULL;
     if (!cache)
         return;
     while (cache->entries) {
@@ -221,25 +231,27 @@ static size_t chunk_prefix_bytes(void)
  * visible share of their server time in the stream's calloc, queueing
  * and free.  Returns 1 when it answered (e is released), else 0.
  */
-static int produce_inline(qmcd_conn *c, qmcd_stream *s, uint32_t pts);
-static int send_end(qmcd_conn *c, qmcd_stream *s);
+static int produce_inline(qmcd_conn *c, stream *s, uint32_t pts);
+static int send_end(qmcd_conn *c, stream *s);
 
 static int answer_now(qmcd_conn *c, uint64_t request_id, seq_entry *e,
                       const qmc_msg_points *p, size_t row, int64_t t0_us)
 {
-    qmcd_server *srv = c->srv; /* c may be closed below; the server stays */
+    qmcd_server *srv = qmcd_conn_server(c); /* c may be closed below; the server stays */
     const size_t data = (size_t)p->count * row;
-    const size_t room = c->client_max_frame - (chunk_prefix_bytes() - QMC_PROTO_HEADER_BYTES);
-    if (c->streams || p->count == 0 || data > QMC_PROTO_CHUNK_BYTES || data > room ||
+    const size_t room =
+        qmcd_conn_client_max_frame(c) - (chunk_prefix_bytes() - QMC_PROTO_HEADER_BYTES);
+    if (qmcd_producer_count(c, &stream_kind) || p->count == 0 ||
+        data > QMC_PROTO_CHUNK_BYTES || data > room ||
         qmcd_conn_out_room(c) < chunk_prefix_bytes() + data + QMCD_OUT_RESERVE)
         return 0;
-    qmcd_stream s = {.request_id = request_id, .seq = e, .format = p->format,
-                     .next_index = p->start, .end = p->start + p->count, .row_bytes = row,
-                     .chunk_points = (uint32_t)p->count, .t0_us = t0_us};
+    stream s = {.p = {.request_id = request_id}, .seq = e, .format = p->format,
+                .next_index = p->start, .end = p->start + p->count, .row_bytes = row,
+                .chunk_points = (uint32_t)p->count, .t0_us = t0_us};
     int rc = produce_inline(c, &s, (uint32_t)p->count);
     if (rc > 0) /* no buffer memory now: the pump tries again later */
         return 0;
-    if (rc == 0 && !c->dead) {
+    if (rc == 0 && !qmcd_conn_gone(c)) {
         s.points_sent = p->count;
         s.bytes_sent = data;
         srv->stats.points_sent += p->count;
@@ -251,14 +263,18 @@ static int answer_now(qmcd_conn *c, uint64_t request_id, seq_entry *e,
     return 1;
 }
 
-void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+/* POINTS: validates the request and starts its stream (or answers a
+ * one-chunk request on the spot), or answers ERROR. */
+static void on_points(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
-    qmcd_server *srv = c->srv;
+    (void)fd;
+    qmcd_server *srv = qmcd_conn_server(c);
     const qmc_msg_points *p = &m->u.points;
     const int shm = p->transport == QMC_TRANSPORT_SHM;
+    const qmcd_ring *ring = qmcd_conn_ring(c);
     char why[256] = "";
-    if (shm && !c->ring) {
-        if (c->unix_socket)
+    if (shm && !ring) {
+        if (qmcd_conn_is_unix(c))
             qmcd_conn_error(c, m->request_id, QMC_EINVAL,
                             "POINTS transport 1 (shm) needs a ring: send SHM_ATTACH first");
         else
@@ -282,9 +298,9 @@ void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     size_t prefix = chunk_prefix_bytes();
     size_t room;
     if (shm) {
-        room = c->ring->slot_bytes;
+        room = ring->slot_bytes;
     } else {
-        room = c->client_max_frame - (prefix - QMC_PROTO_HEADER_BYTES);
+        room = qmcd_conn_client_max_frame(c) - (prefix - QMC_PROTO_HEADER_BYTES);
         if (room > QMC_PROTO_CHUNK_BYTES)
             room = QMC_PROTO_CHUNK_BYTES;
     }
@@ -320,13 +336,12 @@ void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     }
     if (!shm && answer_now(c, m->request_id, e, p, row, t0_us))
         return;
-    qmcd_stream *s = calloc(1, sizeof *s);
+    stream *s = calloc(1, sizeof *s);
     if (!s) {
         cache_put(srv->seqs, e);
         qmcd_conn_error(c, m->request_id, QMC_ENOMEM, "out of memory");
         return;
     }
-    s->request_id = m->request_id;
     s->seq = e;
     s->format = p->format;
     s->next_index = p->start;
@@ -335,49 +350,7 @@ void qmcd_points_start(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     s->chunk_points = (uint32_t)(room / row);
     s->shm = shm;
     s->t0_us = t0_us;
-    /* Appended last, so streams take turns in arrival order. */
-    qmcd_stream **link = &c->streams;
-    while (*link)
-        link = &(*link)->next;
-    *link = s;
-    c->n_streams++;
-}
-
-static void stream_free(qmcd_conn *c, qmcd_stream *s)
-{
-    cache_put(c->srv->seqs, s->seq);
-    free(s);
-    c->n_streams--;
-}
-
-int qmcd_points_has_request(const qmcd_conn *c, uint64_t request_id)
-{
-    for (const qmcd_stream *s = c->streams; s; s = s->next)
-        if (s->request_id == request_id)
-            return 1;
-    return 0;
-}
-
-void qmcd_points_end_request(qmcd_conn *c, uint64_t request_id)
-{
-    for (qmcd_stream **link = &c->streams; *link; link = &(*link)->next)
-        if ((*link)->request_id == request_id) {
-            qmcd_stream *s = *link;
-            *link = s->next;
-            stream_free(c, s);
-            return;
-        }
-}
-
-void qmcd_points_drop_all(qmcd_conn *c)
-{
-    while (c->streams) {
-        qmcd_stream *s = c->streams;
-        c->streams = s->next;
-        stream_free(c, s);
-    }
-    qmcd_ring_free(c->ring);
-    c->ring = NULL;
+    qmcd_producer_attach(c, &s->p, &stream_kind, m->request_id);
 }
 
 /* The protocol is little-endian; qmc_seq_fill writes host order. */
@@ -397,32 +370,32 @@ static void to_little_endian(uint8_t *data, size_t bytes, size_t coord)
 
 /* Queues the END frame of a finished stream.  Returns 0, or -1 without
  * room (tried again on the next pump). */
-static int send_end(qmcd_conn *c, qmcd_stream *s)
+static int send_end(qmcd_conn *c, stream *s)
 {
-    qmc_msg m = {.type = QMC_MSG_END, .request_id = s->request_id};
+    qmc_msg m = {.type = QMC_MSG_END, .request_id = s->p.request_id};
     m.u.end.points = s->points_sent;
     m.u.end.bytes = s->bytes_sent;
     if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE / 2 || qmcd_conn_send(c, &m) != 0)
         return -1;
-    qmcd_answered(c->srv, s->t0_us);
+    qmcd_answered(qmcd_conn_server(c), s->t0_us);
     return 0;
 }
 
-static uint32_t next_chunk_points(const qmcd_stream *s)
+static uint32_t next_chunk_points(const stream *s)
 {
     uint64_t left = s->end - s->next_index;
     return left < s->chunk_points ? (uint32_t)left : s->chunk_points;
 }
 
 /* 1 when the stream's next chunk waits for a ring slot to come back. */
-static int waits_for_slot(const qmcd_conn *c, const qmcd_stream *s)
+static int waits_for_slot(const qmcd_conn *c, const stream *s)
 {
-    return s->shm && s->next_index < s->end && c->ring->held == c->ring->slots;
+    return s->shm && s->next_index < s->end && qmcd_ring_full(qmcd_conn_ring(c));
 }
 
 /* 1 when the output buffer has room for the stream's next frame and the
  * reserve for small answers. */
-static int has_room(const qmcd_conn *c, const qmcd_stream *s)
+static int has_room(const qmcd_conn *c, const stream *s)
 {
     size_t room = qmcd_conn_out_room(c);
     if (s->next_index == s->end)
@@ -435,17 +408,17 @@ static int has_room(const qmcd_conn *c, const qmcd_stream *s)
 
 /* Logs and answers a generation failure (a bug: the range was checked at
  * the start, so this is not input). */
-static void fill_failed(qmcd_conn *c, const qmcd_stream *s, uint32_t pts, int err)
+static void fill_failed(qmcd_conn *c, const stream *s, uint32_t pts, int err)
 {
     qmcd_err("conn %llu: request %llu: generating points %llu..+%u failed: %s",
-             (unsigned long long)c->id, (unsigned long long)s->request_id,
+             (unsigned long long)qmcd_conn_id(c), (unsigned long long)s->p.request_id,
              (unsigned long long)s->next_index, pts, qmc_strerror(err));
-    qmcd_conn_error(c, s->request_id, err ? err : QMC_EINVAL, "generating points failed");
+    qmcd_conn_error(c, s->p.request_id, err ? err : QMC_EINVAL, "generating points failed");
 }
 
 /* One POINTS_CHUNK, generated in place in the output buffer.  Returns 0,
  * or -1 after an ERROR (the stream is over; the connection may be too). */
-static int produce_inline(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
+static int produce_inline(qmcd_conn *c, stream *s, uint32_t pts)
 {
     size_t data = (size_t)pts * s->row_bytes;
     size_t prefix = chunk_prefix_bytes();
@@ -453,7 +426,7 @@ static int produce_inline(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
     uint8_t *buf = qmcd_conn_out_reserve(c, frame, prefix);
     if (!buf)
         return 1; /* no memory for the buffer now: try again later */
-    int n = qmc_proto_encode_chunk_prefix(s->request_id, s->next_index, pts, (uint32_t)data,
+    int n = qmc_proto_encode_chunk_prefix(s->p.request_id, s->next_index, pts, (uint32_t)data,
                                           buf, frame);
     int err = n < 0 ? n : qmc_seq_fill(s->seq->seq, s->next_index, pts, s->format, buf + n);
     if (err || (size_t)n != prefix) {
@@ -466,125 +439,105 @@ static int produce_inline(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
 }
 
 /* One POINTS_SHM_CHUNK: the points go into the next free slot of the
- * ring, the frame saying so into the output buffer.  Returns as
+ * ring, the frame saying so into the output buffer.  Returns 0 when it
+ * queued the chunk (and *flush says whether to send now), else as
  * produce_inline. */
-static int produce_shm(qmcd_conn *c, qmcd_stream *s, uint32_t pts)
+static int produce_shm(qmcd_conn *c, stream *s, uint32_t pts, int *flush)
 {
-    qmcd_ring *r = c->ring;
+    qmcd_ring *r = qmcd_conn_ring(c);
     size_t data = (size_t)pts * s->row_bytes;
-    uint32_t slot = r->next;
-    uint8_t *dst = r->base + (size_t)slot * r->slot_bytes;
+    uint32_t slot;
+    uint8_t *dst = qmcd_ring_next(r, &slot);
     int err = qmc_seq_fill(s->seq->seq, s->next_index, pts, s->format, dst);
     if (err) {
         fill_failed(c, s, pts, err);
         return -1;
     }
     to_little_endian(dst, data, qmc_format_bytes(s->format));
-    qmc_msg m = {.type = QMC_MSG_POINTS_SHM_CHUNK, .request_id = s->request_id};
+    qmc_msg m = {.type = QMC_MSG_POINTS_SHM_CHUNK, .request_id = s->p.request_id};
     m.u.shm_chunk.first = s->next_index;
     m.u.shm_chunk.points = pts;
     m.u.shm_chunk.data_len = (uint32_t)data;
     m.u.shm_chunk.slot = slot;
     if (qmcd_conn_send(c, &m) != 0)
         return -1; /* the connection is closed: r and s are gone */
-    r->next = slot + 1 == r->slots ? 0 : slot + 1;
-    if (++r->held == r->slots)
-        r->full_ms = qmcd_now_ms();
+    *flush = qmcd_ring_hand_out(r);
     return 0;
 }
 
-/* Ring chunks go out in batches of half the ring (and whenever the ring
- * is full, or the stream or the kick's turn ends): each send wakes a
- * client that waits, and on a VM a wakeup costs as much as generating a
- * few hundred KiB, so a send per chunk cost about a fifth of the rate
- * (measured, 8 x 1 MiB); while the client handles one half, we fill the
- * other. */
-static uint32_t shm_batch(const qmcd_ring *r)
+/* The producer's pump: at most one chunk (or the END) of this stream. */
+static int stream_pump(qmcd_conn *c, qmcd_producer *p)
 {
-    return r->slots / 2;
-}
-
-int qmcd_points_pump(qmcd_conn *c)
-{
-    /* The first stream in turn order that is not waiting for a ring slot
-     * (those wait for SHM_RELEASE and let the others pass); it goes when
-     * the output buffer has room, and until then the others wait too, so
-     * that a stream with big chunks is not starved by small ones. */
-    qmcd_stream **link = &c->streams;
-    while (*link && waits_for_slot(c, *link))
-        link = &(*link)->next;
-    qmcd_stream *s = *link;
-    if (!s || !has_room(c, s))
-        return 0;
+    stream *s = (stream *)p;
+    if (waits_for_slot(c, s))
+        return QMCD_PUMP_WAIT; /* SHM_RELEASE brings it back */
+    if (!has_room(c, s))
+        return QMCD_PUMP_NO_ROOM;
     if (s->next_index == s->end) {
-        if (send_end(c, s) != 0 || c->dead)
-            return 0;
-        *link = s->next;
-        stream_free(c, s);
-        return 1;
+        if (send_end(c, s) != 0)
+            return qmcd_conn_gone(c) ? QMCD_PUMP_FAILED : QMCD_PUMP_NO_ROOM;
+        return QMCD_PUMP_DONE;
     }
     uint32_t pts = next_chunk_points(s);
-    int rc = s->shm ? produce_shm(c, s, pts) : produce_inline(c, s, pts);
+    int flush = 0;
+    int rc = s->shm ? produce_shm(c, s, pts, &flush) : produce_inline(c, s, pts);
     if (rc > 0)
-        return 0;
-    if (rc < 0) {
-        if (c->dead) /* closing freed every stream, s too */
-            return 1;
-        *link = s->next;
-        stream_free(c, s);
-        return 1;
-    }
+        return QMCD_PUMP_NO_ROOM; /* no buffer memory now: try again later */
+    if (rc < 0)
+        return QMCD_PUMP_FAILED;  /* its ERROR is queued, or the connection is gone */
     size_t data = (size_t)pts * s->row_bytes;
-    int produced = 1;
-    if (s->shm) {
-        qmcd_ring *r = c->ring;
-        if (r->held == r->slots || ++r->unsent >= shm_batch(r)) {
-            r->unsent = 0;
-            produced |= QMCD_PUMP_FLUSH;
-        }
-    }
     s->next_index += pts;
     s->points_sent += pts;
     s->bytes_sent += data;
-    c->srv->stats.points_sent += pts;
+    qmcd_conn_server(c)->stats.points_sent += pts;
+    flush = flush ? QMCD_PUMP_FLUSH : 0;
     /* The last chunk: its END goes right behind it when it fits, so a
      * small request costs one turn, not two. */
     if (s->next_index == s->end) {
-        int sent = send_end(c, s) == 0;
-        if (c->dead) /* a failed send closed the connection and freed s */
-            return produced;
-        if (sent) {
-            *link = s->next;
-            stream_free(c, s);
-            return produced;
-        }
+        if (send_end(c, s) == 0)
+            return QMCD_PUMP_DONE | flush;
+        if (qmcd_conn_gone(c)) /* a failed send closed the connection and released s */
+            return QMCD_PUMP_FAILED;
     }
-    /* Round robin: this stream goes to the back. */
-    if (s->next) {
-        *link = s->next;
-        qmcd_stream *last = *link;
-        while (last->next)
-            last = last->next;
-        last->next = s;
-        s->next = NULL;
-    }
-    return produced;
+    return QMCD_PUMP_SENT | flush;
 }
 
-int qmcd_points_want_output(const qmcd_conn *c)
+static qmcd_wait stream_waiting(const qmcd_conn *c, const qmcd_producer *p)
 {
-    for (const qmcd_stream *s = c->streams; s; s = s->next)
-        if (!waits_for_slot(c, s))
-            return 1;
-    return 0;
+    return waits_for_slot(c, (const stream *)p) ? QMCD_WAIT_RING : QMCD_WAIT_NONE;
 }
 
-int64_t qmcd_points_ring_stalled_ms(const qmcd_conn *c)
+/* A stream has no early end a client could wait for: at the shutdown
+ * deadline its connection is cut. */
+static int stream_shutdown(qmcd_conn *c, qmcd_producer *p)
 {
-    if (!c->ring)
-        return 0;
-    for (const qmcd_stream *s = c->streams; s; s = s->next)
-        if (waits_for_slot(c, s))
-            return c->ring->full_ms;
-    return 0;
+    (void)c, (void)p;
+    return 1;
 }
+
+static void stream_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
+{
+    (void)why;
+    stream *s = (stream *)p;
+    cache_put(qmcd_conn_server(c)->seqs, s->seq);
+    free(s);
+}
+
+static const qmcd_producer_kind stream_kind = {
+    .name = "points",
+    .flags = QMCD_PRODUCER_BULK,
+    .pump = stream_pump,
+    .waiting = stream_waiting,
+    .shutdown = stream_shutdown,
+    .release = stream_release,
+};
+
+const qmcd_module qmcd_points_module = {
+    .name = "points",
+    .routes = (const qmcd_route[]){
+        {QMC_MSG_POINTS, QMCD_ROUTE_REQUEST | QMCD_ROUTE_STARTS, on_points},
+        {0, 0, NULL},
+    },
+    .open = points_open,
+    .close = points_close,
+};

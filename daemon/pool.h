@@ -1,6 +1,7 @@
 /*
  * pool.h - the worker pool that runs INTEGRATE jobs, shared fairly between
- * connections ("tenants"): see pool.c.  jobs.c is its only user.
+ * connections ("tenants", one a connection: conn_services.h); see pool.c.
+ * jobs.c is its only user.
  */
 #ifndef QMCD_POOL_H
 #define QMCD_POOL_H

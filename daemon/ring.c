@@ -1,6 +1,8 @@
 /*
- * ring.c - SHM_ATTACH and SHM_RELEASE: the shared-memory ring a client on
- * a Unix socket lends for POINTS data (PROTOCOL.md section 10).
+ * ring.c - the shared-memory ring a client on a Unix socket lends for bulk
+ * data (SHM_ATTACH, PROTOCOL.md section 10): checking and mapping its
+ * memfd, handing its slots out in order and taking them back.  The
+ * requests that attach and release it are shm.c's.
  *
  * The ring is the client's memory, and must stay so: the daemon only
  * writes into pages the client allocated.  So the memfd must be a memfd
@@ -13,10 +15,13 @@
  * pages after SHM_OK and let our writes allocate them again, charged to
  * the daemon (64 MiB a connection at the default max-shm-bytes).  Whether
  * the kernel really refuses a punch under that seal is probed once, on a
- * scratch memfd, before the first ring is accepted; if it does not, the
- * transport is refused (clients fall back to inline chunks).
+ * scratch memfd, before the first ring is accepted
+ * (qmcd_ring_seal_stops_punching); if it does not, the transport is refused
+ * (clients fall back to inline chunks).
  *
- * This file must not generate points (points.c) or read sockets (conn.c).
+ * This file must not generate data (the producers do), answer requests
+ * (shm.c) or read sockets (conn.c): it calls nothing of the daemon but the
+ * clock.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -30,9 +35,9 @@
 #include <sys/vfs.h>
 #include <unistd.h>
 
-#include "log.h"
-#include "points.h"
+#include "qmc/proto.h"
 #include "ring.h"
+#include "server.h"
 
 /* statfs f_type of shmem (memfd_create, tmpfs): linux/magic.h. */
 #define SHMEM_MAGIC 0x01021994
@@ -46,6 +51,35 @@ void qmcd_ring_free(qmcd_ring *r)
         return;
     munmap(r->base, r->bytes);
     free(r);
+}
+
+int qmcd_ring_full(const qmcd_ring *r)
+{
+    return r->held == r->slots;
+}
+
+uint8_t *qmcd_ring_next(const qmcd_ring *r, uint32_t *slot)
+{
+    *slot = r->next;
+    return r->base + (size_t)r->next * r->slot_bytes;
+}
+
+/* Ring chunks go out in batches of half the ring (and whenever the ring
+ * is full, or the producer or the kick's turn ends): each send wakes a
+ * client that waits, and on a VM a wakeup costs as much as generating a
+ * few hundred KiB, so a send per chunk cost about a fifth of the rate
+ * (measured, 8 x 1 MiB); while the client handles one half, we fill the
+ * other. */
+int qmcd_ring_hand_out(qmcd_ring *r)
+{
+    r->next = r->next + 1 == r->slots ? 0 : r->next + 1;
+    if (++r->held == r->slots)
+        r->full_ms = qmcd_now_ms();
+    if (r->held == r->slots || ++r->unsent >= r->slots / 2) {
+        r->unsent = 0;
+        return 1;
+    }
+    return 0;
 }
 
 /* The descriptor must be a memfd (a regular file on shmem: not hugetlbfs,
@@ -128,7 +162,7 @@ static int check_populated(uint8_t *base, size_t bytes, char *why, size_t n)
  * F_SEAL_FUTURE_WRITE while a writable shared mapping of it exists (our
  * situation after SHM_ATTACH), tried on a one-page scratch memfd; 0 when it
  * lets the punch through or lacks the seal (before Linux 5.1). */
-static int punch_refused_by_seal(void)
+int qmcd_ring_seal_stops_punching(void)
 {
     int fd = memfd_create("qmcd-seal-probe", MFD_CLOEXEC | MFD_ALLOW_SEALING);
     if (fd < 0)
@@ -150,83 +184,38 @@ static int punch_refused_by_seal(void)
     return refused;
 }
 
-/* The probe, once per daemon. */
-static int shm_safe(qmcd_server *srv)
+int qmcd_ring_map(int fd, uint32_t slots, uint32_t slot_bytes, qmcd_ring **out, char *why,
+                  size_t n)
 {
-    if (srv->shm_seal_probe == 0) {
-        srv->shm_seal_probe = punch_refused_by_seal() ? 1 : -1;
-        if (srv->shm_seal_probe < 0)
-            qmcd_warn("shared memory: this kernel lets a client punch holes in a memfd "
-                      "sealed with F_SEAL_FUTURE_WRITE; SHM_ATTACH is refused (clients "
-                      "use inline chunks)");
-    }
-    return srv->shm_seal_probe > 0;
-}
-
-void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
-{
-    const qmc_msg_shm *a = &m->u.shm;
-    const qmcd_config *cfg = &c->srv->cfg;
-    const uint64_t bytes = (uint64_t)a->slots * a->slot_bytes;
-    char why[256] = "";
-    int err = 0;
+    const uint64_t bytes = (uint64_t)slots * slot_bytes;
     void *base = MAP_FAILED;
     qmcd_ring *r = NULL;
-    if (!c->unix_socket) {
-        err = QMC_ENOTSUP;
-        snprintf(why, sizeof why, "SHM_ATTACH needs a Unix-socket connection (the memfd "
-                                  "travels with SCM_RIGHTS)");
-    } else if (cfg->max_shm_bytes == 0) {
-        err = QMC_ENOTSUP;
-        snprintf(why, sizeof why, "the shared-memory transport is off on this server "
-                                  "(max-shm-bytes = 0)");
-    } else if (c->ring) {
-        err = QMC_EINVAL;
-        snprintf(why, sizeof why, "SHM_ATTACH: a ring is already attached to this connection");
-    } else if (fd < 0) {
-        err = QMC_EINVAL;
-        snprintf(why, sizeof why, "SHM_ATTACH came without a file descriptor (send the memfd "
-                                  "with SCM_RIGHTS in the sendmsg that carries the frame)");
-    } else if (!shm_safe(c->srv)) {
-        err = QMC_ENOTSUP;
-        snprintf(why, sizeof why, "the shared-memory transport is off on this server: its "
-                                  "kernel does not stop hole punching in a sealed memfd");
-    } else if (bytes > cfg->max_shm_bytes) {
-        err = QMC_ETOOBIG;
-        snprintf(why, sizeof why, "max-shm-bytes: a ring of %u x %u bytes exceeds the "
-                                  "%llu-byte limit", a->slots, a->slot_bytes,
-                 (unsigned long long)cfg->max_shm_bytes);
-    } else {
-        err = check_memfd(fd, bytes, why, sizeof why);
-    }
+    *out = NULL;
+    int err = check_memfd(fd, bytes, why, n);
     if (!err) {
         base = mmap(NULL, (size_t)bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
         if (base == MAP_FAILED) {
             err = -errno;
-            snprintf(why, sizeof why, "SHM_ATTACH: cannot map the memfd: %s",
-                     qmc_strerror(err));
+            snprintf(why, n, "SHM_ATTACH: cannot map the memfd: %s", qmc_strerror(err));
         }
     }
     /* Sealed before the populated check, so that what it finds stays true:
      * from here on no one can punch a hole (PROTOCOL.md section 10). */
     if (!err && fcntl(fd, F_ADD_SEALS, F_SEAL_FUTURE_WRITE | F_SEAL_SEAL) != 0) {
         err = -errno;
-        snprintf(why, sizeof why, "SHM_ATTACH: cannot seal the memfd with "
-                                  "F_SEAL_FUTURE_WRITE: %s", qmc_strerror(err));
+        snprintf(why, n, "SHM_ATTACH: cannot seal the memfd with F_SEAL_FUTURE_WRITE: %s",
+                 qmc_strerror(err));
     }
     if (!err)
-        err = check_populated(base, (size_t)bytes, why, sizeof why);
+        err = check_populated(base, (size_t)bytes, why, n);
     if (!err && !(r = calloc(1, sizeof *r))) {
         err = QMC_ENOMEM;
-        snprintf(why, sizeof why, "out of memory");
+        snprintf(why, n, "out of memory");
     }
-    if (fd >= 0)
-        close(fd); /* the mapping keeps the memory; the descriptor is not needed */
     if (err) {
         if (base != MAP_FAILED)
             munmap(base, (size_t)bytes);
-        qmcd_conn_error(c, m->request_id, err, "%s", why);
-        return;
+        return err;
     }
 #ifdef MADV_POPULATE_WRITE
     /* Map every page now (they exist: checked above), so the first lap of
@@ -235,36 +224,17 @@ void qmcd_points_shm_attach(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_u
 #endif
     r->base = base;
     r->bytes = (size_t)bytes;
-    r->slots = a->slots;
-    r->slot_bytes = a->slot_bytes;
-    c->ring = r;
-    qmcd_debug("conn %llu: ring of %u x %u bytes attached", (unsigned long long)c->id,
-               a->slots, a->slot_bytes);
-    qmc_msg ok = {.type = QMC_MSG_SHM_OK, .request_id = m->request_id};
-    ok.u.shm = *a;
-    if (qmcd_conn_send(c, &ok) == 0)
-        qmcd_answered(c->srv, t0_us);
+    r->slots = slots;
+    r->slot_bytes = slot_bytes;
+    *out = r;
+    return 0;
 }
 
-void qmcd_points_shm_release(qmcd_conn *c, const qmc_msg *m)
+int qmcd_ring_take_back(qmcd_ring *r, uint32_t slots)
 {
-    qmcd_ring *r = c->ring;
-    uint32_t n = m->u.release.slots;
-    if (m->request_id != 0) {
-        qmcd_conn_fail(c, m->request_id, QMC_EPROTO,
-                       "SHM_RELEASE must carry request id 0, not %llu",
-                       (unsigned long long)m->request_id);
-        return;
-    }
-    if (!r) {
-        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE without an attached ring");
-        return;
-    }
-    if (n > r->held) {
-        qmcd_conn_fail(c, 0, QMC_EPROTO, "SHM_RELEASE of %u slots, but the client holds only %u",
-                       n, r->held);
-        return;
-    }
-    r->held -= n;
+    if (slots > r->held)
+        return -1;
+    r->held -= slots;
     r->full_ms = 0;
+    return 0;
 }

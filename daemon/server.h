@@ -19,6 +19,11 @@ typedef struct qmcd_listener qmcd_listener;
 typedef struct qmcd_auth qmcd_auth;
 typedef struct qmcd_peers qmcd_peers;
 typedef struct qmcd_modbus qmcd_modbus;
+typedef struct qmcd_route qmcd_route;
+typedef struct qmcd_module qmcd_module;
+
+/* The dispatch table's size: message type codes are below this. */
+#define QMCD_ROUTE_TYPES 64
 
 /* epoll_event.data.ptr points at one of these: the handler runs on the
  * loop thread with the events epoll reported. */
@@ -50,9 +55,15 @@ struct qmcd_server {
     uint64_t n_jobs;           /* queued + running, all connections */
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
+    uint64_t pixel_table_bytes; /* pixels.c: sampler tables open tiles hold (max-seq-memory) */
     qmcd_stats stats;
     qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
+    /* The dispatch table by message type, and the modules whose rows it
+     * holds (producer.h; filled by modules.c from modules.h). */
+    const qmcd_route *routes[QMCD_ROUTE_TYPES];
+    const qmcd_module *const *modules;
+    unsigned n_modules;
     int draining;              /* SIGTERM seen: no new work */
     int64_t drain_deadline_ms; /* then cancel what still runs */
     int jobs_cancelled_for_exit;

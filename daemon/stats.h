@@ -23,6 +23,7 @@
     X(errors_sent, "errors_sent")                           \
     X(limit_hits, "limit_refusals")                         \
     X(points_sent, "points_sent")                           \
+    X(pixel_samples_sent, "pixel_samples_sent")             \
     X(jobs_accepted, "jobs_accepted")                       \
     X(jobs_done, "jobs_done")                               \
     X(jobs_failed, "jobs_failed")                           \

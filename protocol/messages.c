@@ -6,12 +6,12 @@
  * layouts byte by byte; change both together.
  *
  * Enumerations travel as one byte holding the code of their X-macro table
- * (seq kinds, scrambles, formats, samplers, methods, scene strategies, job
- * states, ...).  What the codec can check it checks here: codes known,
- * reserved bytes zero, flag bits defined, lengths within limits, request
- * doubles finite.  Semantic checks (dimension limits, which scramble a kind
- * takes, budgets) stay with qmc_seq_spec_check and qmc_job_new in the
- * daemon.  No I/O, no allocation, no global state.
+ * (seq kinds, scrambles, formats, samplers, pixel samplers, methods,
+ * scene strategies, job states, ...).  What the codec can check it checks
+ * here: codes known, reserved bytes zero, flag bits defined, lengths within
+ * limits, request doubles finite.  Semantic checks (dimension limits, which
+ * scramble a kind takes, budgets, tiles inside the image) stay with
+ * qmc_seq_spec_check, qmc_pixel_spec_check and qmc_job_new in the daemon.  No I/O, no allocation, no global state.
  */
 #include <string.h>
 
@@ -63,6 +63,17 @@ static int strategy_ok(uint32_t v)
 {
     switch (v) {
     QMC_SCENE_STRATEGY_MAP(CASE_CODE)
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+/* Pixel samplers are numbered by their code (qmc/pixel.h). */
+static int pixel_sampler_ok(uint32_t v)
+{
+    switch (v) {
+    QMC_PIXEL_SAMPLER_MAP(CASE_CODE)
         return 1;
     default:
         return 0;
@@ -154,6 +165,7 @@ enum {
     FIXED_HELLO = 8,
     FIXED_HELLO_OK = 32,
     FIXED_POINTS = 48,
+    FIXED_PIXELS = 64,
     FIXED_CHUNK = 16,
     FIXED_END = 16,
     FIXED_INTEGRATE = 104,
@@ -219,6 +231,31 @@ static void io_points(qmc__io *io, qmc_msg *m)
     qmc__io_u64(io, &p->seq.set_size);
     qmc__io_u64(io, &p->start);
     qmc__io_u64(io, &p->count);
+}
+
+/* PIXELS: the spec, then the tile.  Zero sizes, tiles outside the image
+ * and samples past spp are the daemon's to refuse with the core's reason
+ * (qmc_pixel_spec_check, qmc_pixels_tile_check), as POINTS leaves dims to
+ * qmc_seq_spec_check. */
+static void io_pixels(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_pixels *p = &m->u.pixels;
+    IO_ENUM(io, p->spec.sampler, pixel_sampler_ok);
+    IO_ENUM(io, p->format, format_ok);
+    IO_ENUM(io, p->transport, transport_ok);
+    qmc__io_zero(io, 1);
+    qmc__io_u32(io, &p->spec.width);
+    qmc__io_u32(io, &p->spec.height);
+    qmc__io_u32(io, &p->spec.seed);
+    qmc__io_u32(io, &p->spec.frame);
+    qmc__io_u32(io, &p->spec.dims);
+    qmc__io_u64(io, &p->spec.spp);
+    qmc__io_u32(io, &p->tile.x);
+    qmc__io_u32(io, &p->tile.y);
+    qmc__io_u32(io, &p->tile.width);
+    qmc__io_u32(io, &p->tile.height);
+    qmc__io_u64(io, &p->tile.sample_start);
+    qmc__io_u64(io, &p->tile.sample_count);
 }
 
 /* Whole points of whole 4- or 8-byte coordinates: at least one point,
@@ -518,6 +555,7 @@ static void io_auth_ok(qmc__io *io, qmc_msg *m)
 #define LAYOUT_AUTH_CHALLENGE io_auth_challenge, FIXED_AUTH_CHALLENGE, FIXED_AUTH_CHALLENGE
 #define LAYOUT_AUTH_RESPONSE io_auth_response, FIXED_AUTH_RESPONSE, FIXED_AUTH_RESPONSE
 #define LAYOUT_AUTH_OK io_auth_ok, FIXED_AUTH_OK, FIXED_AUTH_OK
+#define LAYOUT_PIXELS io_pixels, FIXED_PIXELS, FIXED_PIXELS
 
 #define ROW_FIELDS(fn, lo, hi) (lo), (hi), fn
 #define ROW_EXPAND(...) ROW_FIELDS(__VA_ARGS__)

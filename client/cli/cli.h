@@ -74,6 +74,7 @@ double cli_now_seconds(void);
 
 /* Subcommands: each takes argv with argv[0] the subcommand name. */
 int cli_cmd_points(int argc, char **argv);
+int cli_cmd_pixels(int argc, char **argv);
 int cli_cmd_discrepancy(int argc, char **argv);
 int cli_cmd_spectrum(int argc, char **argv);
 int cli_cmd_ping(int argc, char **argv);

@@ -2,7 +2,7 @@
  * main.c - the qmc command: dispatch to subcommands, --help, --version.
  *
  * Every subcommand takes --connect ENDPOINT (or QMC_ENDPOINT): points,
- * spectrum and integrate then run on the daemon, ping and stats need one,
+ * pixels, spectrum and integrate then run on the daemon, ping and stats need one,
  * and discrepancy and merge, which work on local files, accept and ignore
  * it so that scripts can pass it everywhere.
  *
@@ -28,6 +28,7 @@ static int cmd_help(int argc, char **argv);
 
 static const cli_command commands[] = {
     {"points", cli_cmd_points, 0, "write points of a sequence (CSV or binary)"},
+    {"pixels", cli_cmd_pixels, 0, "write a tile of a renderer's pixel sampler (binary)"},
     {"discrepancy", cli_cmd_discrepancy, 1, "discrepancy of a CSV point set"},
     {"spectrum", cli_cmd_spectrum, 0, "Fourier power spectrum of a 2D point set"},
     {"integrate", cli_cmd_integrate, 0, "integrate a test function or a scene"},

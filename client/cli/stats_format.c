@@ -61,6 +61,7 @@ static const known_stat known[] = {
     {"errors_sent", 0, "ERROR frames sent."},
     {"limit_refusals", 0, "Requests refused because a configured limit was reached."},
     {"points_sent", 0, "Points sent in POINTS answers."},
+    {"pixel_samples_sent", 0, "Samples sent in PIXELS answers."},
     {"jobs_accepted", 0, "INTEGRATE jobs accepted."},
     {"jobs_done", 0, "Jobs finished with a result."},
     {"jobs_failed", 0, "Jobs that ended in an error."},

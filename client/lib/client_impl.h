@@ -3,7 +3,8 @@
  *
  * endpoint.c parses endpoints and opens sockets; conn.c moves frames
  * (bounded buffers, deadlines, error text); client.c is the handshake,
- * ping, stats and accessors; points.c the POINTS stream; shm.c the
+ * ping, stats and accessors; points.c the POINTS stream (and the stream
+ * of one request, which PIXELS shares); pixels.c PIXELS tiles; shm.c the
  * shared-memory ring; jobs.c the INTEGRATE family.  Cross-file names are qmc__client_*; nothing here is
  * public API, but the unit test includes it to reach the parser and the
  * allocator seam.
@@ -166,6 +167,39 @@ int qmc__client_other(qmc_client *c, const qmc_msg *msg, uint64_t waiting_for);
  * jobs are filed on the way (qmc__client_file_job).  Same errors. */
 int qmc__client_await(qmc_client *c, uint64_t request_id, int64_t deadline_ms,
                       int keep_on_timeout, qmc_msg *msg);
+
+/* ---- points.c --------------------------------------------------------------------- */
+
+/* How far a whole (possibly split) stream has got, for messages. */
+typedef struct qmc__client_progress {
+    uint64_t done;                /* points handed to the callback */
+    uint64_t total;               /* points the caller asked for */
+    const char *noun;             /* what a point is called: "points", "samples" */
+    const char *what;             /* the request, for messages: "points", "pixels" */
+} qmc__client_progress;
+
+/*
+ * Sends req (a POINTS or PIXELS whose answer is `count` points numbered
+ * from `start`, `row_bytes` each) and reads its stream: chunks, checked
+ * and handed to on_chunk, then END.  *transport (the request's transport
+ * field) is set here: the ring when one is attached (or worth attaching
+ * and attached now) and a point fits a slot.  Errors as
+ * qmc_client_points_stream; pr says how far the whole stream got.
+ */
+int qmc__client_stream_one(qmc_client *c, qmc_msg *req, qmc_points_transport *transport,
+                           uint64_t start, uint64_t count, uint64_t row_bytes,
+                           qmc_client_chunk_fn on_chunk, void *ctx, qmc__client_progress *pr);
+
+/* A qmc_client_chunk_fn that copies each chunk into a caller's buffer,
+ * in host byte order: point `first` goes to out + (first - start) *
+ * row_bytes. */
+typedef struct qmc__client_copy {
+    uint8_t *out;
+    uint64_t start;
+    size_t row_bytes, value_bytes;
+} qmc__client_copy;
+int qmc__client_copy_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
+                           size_t bytes);
 
 /* ---- shm.c ---------------------------------------------------------------------- */
 

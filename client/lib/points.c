@@ -1,7 +1,9 @@
 /*
  * points.c - POINTS requests: the stream of POINTS_CHUNK frames (or, with
  * a ring attached, POINTS_SHM_CHUNK frames naming ring slots) and its END,
- * checked chunk by chunk.
+ * checked chunk by chunk.  The stream of one request is
+ * qmc__client_stream_one, which PIXELS (pixels.c) shares: its answer is
+ * the same frames.
  *
  * A chunk must start where the previous one ended, hold a whole number of
  * points, and not run past the request; a ring chunk must name the slot
@@ -24,16 +26,10 @@
 
 #include "client_impl.h"
 
-/* How far a whole (possibly split) stream has got, for messages. */
-typedef struct stream_progress {
-    uint64_t done;                /* points handed to the callback */
-    uint64_t total;               /* points the caller asked for */
-} stream_progress;
-
 /* err, with c->message saying how far the stream got when the connection
  * was lost (any error that closed it; a server ERROR keeps it open and
  * speaks for itself). */
-static int lost_at(qmc_client *c, int err, const stream_progress *pr)
+static int lost_at(qmc_client *c, int err, const qmc__client_progress *pr)
 {
     if (c->fd >= 0)
         return err;
@@ -41,19 +37,18 @@ static int lost_at(qmc_client *c, int err, const stream_progress *pr)
     memcpy(was, c->message, sizeof was);
     if (err == -ECONNRESET || err == -EPIPE || err == -ECONNABORTED)
         snprintf(c->message, sizeof c->message, "the daemon closed the connection after "
-                 "%llu of %llu points", (unsigned long long)pr->done,
-                 (unsigned long long)pr->total);
+                 "%llu of %llu %s", (unsigned long long)pr->done,
+                 (unsigned long long)pr->total, pr->noun);
     else
-        snprintf(c->message, sizeof c->message, "%.*s (after %llu of %llu points)",
-                 (int)(sizeof c->message - 48), was, (unsigned long long)pr->done,
-                 (unsigned long long)pr->total);
+        snprintf(c->message, sizeof c->message, "%.*s (after %llu of %llu %s)",
+                 (int)(sizeof c->message - 64), was, (unsigned long long)pr->done,
+                 (unsigned long long)pr->total, pr->noun);
     return err;
 }
 
-/* One POINTS request of at most max_points, its chunks and its END. */
-static int stream_one(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
-                      uint64_t count, qmc_format fmt, uint64_t row_bytes,
-                      qmc_client_chunk_fn on_chunk, void *ctx, stream_progress *pr)
+int qmc__client_stream_one(qmc_client *c, qmc_msg *req, qmc_points_transport *transport,
+                           uint64_t start, uint64_t count, uint64_t row_bytes,
+                           qmc_client_chunk_fn on_chunk, void *ctx, qmc__client_progress *pr)
 {
     int err;
     /* More than one chunk's worth: worth a ring, if there is none yet. */
@@ -61,14 +56,8 @@ static int stream_one(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
         (err = qmc__client_shm_auto(c)) != 0)
         return err;
     const int shm = c->ring.base != NULL && row_bytes <= c->ring.slot_bytes;
-    qmc_msg m;
-    memset(&m, 0, sizeof m);
-    m.type = QMC_MSG_POINTS;
-    m.u.points.seq = *spec;
-    m.u.points.format = fmt;
-    m.u.points.transport = shm ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
-    m.u.points.start = start;
-    m.u.points.count = count;
+    *transport = shm ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
+    qmc_msg m = *req;
     uint64_t id;
     if ((err = qmc__client_send(c, &m, &id)) != 0)
         return lost_at(c, err, pr);
@@ -141,11 +130,27 @@ static int stream_one(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
         bytes += data_len;
         int r = on_chunk(ctx, first, points, data, data_len);
         if (r)
-            return qmc__client_break(c, r, "points: the stream was stopped at index %llu; "
-                                     "the connection is closed",
+            return qmc__client_break(c, r, "%s: the stream was stopped at index %llu; "
+                                     "the connection is closed", pr->what,
                                      (unsigned long long)(start + got));
         pr->done += points;
     }
+}
+
+/* One POINTS request of at most max_points. */
+static int stream_one(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
+                      uint64_t count, qmc_format fmt, uint64_t row_bytes,
+                      qmc_client_chunk_fn on_chunk, void *ctx, qmc__client_progress *pr)
+{
+    qmc_msg m;
+    memset(&m, 0, sizeof m);
+    m.type = QMC_MSG_POINTS;
+    m.u.points.seq = *spec;
+    m.u.points.format = fmt;
+    m.u.points.start = start;
+    m.u.points.count = count;
+    return qmc__client_stream_one(c, &m, &m.u.points.transport, start, count, row_bytes,
+                                  on_chunk, ctx, pr);
 }
 
 int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
@@ -165,7 +170,7 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
     const uint64_t row_bytes = (uint64_t)spec->dims * value_bytes;
     /* A server that names no limit (0) takes the request whole. */
     const uint64_t per_request = c->max_points ? c->max_points : count;
-    stream_progress pr = {0, count};
+    qmc__client_progress pr = {0, count, "points", "points"};
     uint64_t done = 0;
     do {
         uint64_t n = count - done < per_request ? count - done : per_request;
@@ -175,16 +180,10 @@ int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *spec, uint64_t s
     return err;
 }
 
-typedef struct copy_ctx {
-    uint8_t *out;
-    uint64_t start;
-    size_t row_bytes, value_bytes;
-} copy_ctx;
-
-static int copy_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
-                      size_t bytes)
+int qmc__client_copy_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
+                           size_t bytes)
 {
-    const copy_ctx *k = ctx;
+    const qmc__client_copy *k = ctx;
     uint8_t *dst = k->out + (size_t)(first - k->start) * k->row_bytes;
     memcpy(dst, data, bytes);
     (void)points;
@@ -216,6 +215,6 @@ int qmc_client_points(qmc_client *c, const qmc_seq_spec *spec, uint64_t start,
         return qmc__client_fail(c, QMC_EINVAL, "points: %llu points of %u dims do not "
                                 "fit in %zu bytes", (unsigned long long)count,
                                 spec->dims, out_bytes);
-    copy_ctx k = {out, start, (size_t)row_bytes, value_bytes};
-    return qmc_client_points_stream(c, spec, start, count, fmt, copy_chunk, &k);
+    qmc__client_copy k = {out, start, (size_t)row_bytes, value_bytes};
+    return qmc_client_points_stream(c, spec, start, count, fmt, qmc__client_copy_chunk, &k);
 }

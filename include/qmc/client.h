@@ -33,16 +33,17 @@
  * client is closed or its connection fails.
  *
  * Shared memory: over a Unix socket to a server that speaks protocol
- * version 2, the points of a POINTS request can travel through a ring of
+ * version 2, the points of a POINTS request (and the samples of a PIXELS
+ * request, version 4) can travel through a ring of
  * slots in a memfd the client shares with the server (PROTOCOL.md section
  * 10) instead of through the socket: the server writes each chunk straight
  * into a slot, so the data is never copied through the kernel.  The first
- * qmc_client_points or qmc_client_points_stream call that asks for more
+ * qmc_client_points, qmc_client_pixels or *_stream call that asks for more
  * than one chunk (QMC_PROTO_CHUNK_BYTES) attaches a ring of 8 slots of
  * QMC_PROTO_CHUNK_BYTES by itself; if the server refuses (TCP, an older
  * server, its max-shm-bytes) or the system cannot (no memfd_create), the
  * points simply come inline, as they always do over TCP.  Once a ring is
- * attached every POINTS request on the client uses it (whose points fit a
+ * attached every POINTS and PIXELS request on the client uses it (whose points fit a
  * slot).  The output is the same bytes either way.
  *
  * Authentication: a server that requires its key (protocol version 3,
@@ -69,6 +70,7 @@
 #include "qmc/error.h"
 #include "qmc/integrate.h"
 #include "qmc/job.h"
+#include "qmc/pixel.h"
 #include "qmc/proto.h"
 #include "qmc/result.h"
 #include "qmc/sampling.h"
@@ -197,6 +199,42 @@ QMC_MUST_CHECK int qmc_client_points_stream(qmc_client *c, const qmc_seq_spec *s
 QMC_MUST_CHECK int qmc_client_points(qmc_client *c, const qmc_seq_spec *spec,
                                      uint64_t start, uint64_t count, qmc_format fmt,
                                      void *out, size_t out_bytes);
+
+/*
+ * Fetches a tile of a pixel sampler (qmc/pixel.h) from the server, as
+ * qmc_pixels_fill computes it in-process: for each pixel of the tile in
+ * row order (y, then x), samples tile->sample_start .. + sample_count - 1,
+ * spec->dims values each, in format fmt.  on_chunk is called as for
+ * qmc_client_points_stream, with `first` the index of the chunk's first
+ * sample in that order (0 for the tile's first) and `points` its samples;
+ * data is little-endian.  The server checks spec and tile with
+ * qmc_pixel_spec_check and qmc_pixels_tile_check, and its refusal comes
+ * back as its ERROR code and one-line reason (the connection stays
+ * usable).  A tile of more samples than the server's max_points is sent
+ * as several requests, each a part of the tile whose output is
+ * contiguous, and reaches on_chunk as one stream, the same bytes: check
+ * the tile first if a later request's ERROR must not come after earlier
+ * chunks.  The ring is used as for POINTS.
+ *
+ * Errors besides the server's and those of qmc_client_points_stream:
+ * QMC_ENOTSUP when the server chose a protocol version below
+ * QMC_PROTO_VERSION_PIXELS (an older qmcd: nothing is sent), QMC_ERANGE
+ * for a tile of more than 2^64 samples, QMC_EFORMAT for an unknown fmt.
+ */
+QMC_MUST_CHECK int qmc_client_pixels_stream(qmc_client *c, const qmc_pixel_spec *spec,
+                                            const qmc_pixel_tile *tile, qmc_format fmt,
+                                            qmc_client_chunk_fn on_chunk, void *ctx);
+
+/*
+ * As qmc_client_pixels_stream, into out: the tile's width x height x
+ * sample_count x dims values of fmt in host byte order (double, float or
+ * uint32_t), exactly as qmc_pixels_fill writes them.  out_bytes must be at
+ * least that (else QMC_EINVAL before anything is sent).  On error out may
+ * hold part of the tile.
+ */
+QMC_MUST_CHECK int qmc_client_pixels(qmc_client *c, const qmc_pixel_spec *spec,
+                                     const qmc_pixel_tile *tile, qmc_format fmt, void *out,
+                                     size_t out_bytes);
 
 /*
  * Attaches a shared-memory ring of `slots` slots of `slot_bytes` bytes to

@@ -126,6 +126,21 @@ QMC_MUST_CHECK int qmc_pixels_at(const qmc_pixels *p, uint32_t x, uint32_t y,
 QMC_MUST_CHECK int qmc_pixels_fill(const qmc_pixels *p, const qmc_pixel_tile *tile,
                                    qmc_format format, void *out);
 
+/*
+ * Cuts a tile into bounded pieces: sets *piece to the next piece of `tile`
+ * from its output sample `done` on (samples counted in qmc_pixels_fill's
+ * order, 0 the first), holding at most max_samples samples, whose own
+ * output is one contiguous run of the tile's: whole rows where a row
+ * fits, else whole pixels of one row, else part of one pixel's samples.
+ * So filling (or fetching) piece after piece, done advancing by each
+ * piece's width x height x sample_count, writes the tile's output in
+ * order with bounded memory.  Returns 0, or QMC_EINVAL (an empty tile,
+ * done not below its sample count, max_samples 0), *piece zeroed.  Pure:
+ * no spec, no check of the tile against an image.
+ */
+QMC_MUST_CHECK int qmc_pixel_tile_piece(const qmc_pixel_tile *tile, uint64_t done,
+                                        uint64_t max_samples, qmc_pixel_tile *piece);
+
 /* Name <-> value lookups.  The parse function returns 0 or QMC_EKIND. */
 const char *qmc_pixel_sampler_name(qmc_pixel_sampler sampler);
 QMC_MUST_CHECK int qmc_pixel_sampler_parse(const char *name, qmc_pixel_sampler *out);

@@ -39,6 +39,7 @@
 #include "qmc/error.h"
 #include "qmc/integrate.h"
 #include "qmc/job.h"
+#include "qmc/pixel.h"
 #include "qmc/seq.h"
 
 #ifdef __cplusplus
@@ -51,7 +52,7 @@ extern "C" {
 /* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
  * the frame format): 1 is the base set; 2 adds the shared-memory transport
  * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
-#define QMC_PROTO_VERSION_MAX 3u
+#define QMC_PROTO_VERSION_MAX 4u
 #define QMC_PROTO_VERSION_SHM 2u
 /* Version 3 adds the key-based authentication of the handshake
  * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
@@ -62,7 +63,10 @@ extern "C" {
  * version the connection negotiated (qmc_proto_result_flags_for). */
 #define QMC_PROTO_VERSION_FLAGS3 3u
 #define QMC_PROTO_RESULT_FLAGS_V1 0x00000fffu   /* versions 1 and 2 */
-#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu
+#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3 and 4 */
+/* Version 4 adds PIXELS (a tile of a pixel sampler, qmc/pixel.h),
+ * answered by the chunk and END frames POINTS uses. */
+#define QMC_PROTO_VERSION_PIXELS 4u
 /* Bytes of each side's nonce and of an HMAC-SHA256 tag in the handshake. */
 #define QMC_PROTO_AUTH_NONCE_BYTES 32u
 #define QMC_PROTO_AUTH_MAC_BYTES 32u
@@ -110,7 +114,8 @@ extern "C" {
     X(SHM_RELEASE, 21, 'C')        \
     X(AUTH_CHALLENGE, 22, 'S')     \
     X(AUTH_RESPONSE, 23, 'C')      \
-    X(AUTH_OK, 24, 'S')
+    X(AUTH_OK, 24, 'S')            \
+    X(PIXELS, 25, 'C')
 
 typedef enum qmc_msg_type {
 #define QMC__MSG_ENUM(name, code, dir) QMC_MSG_##name = (code),
@@ -152,8 +157,9 @@ typedef struct qmc_msg_ping {
     qmc_str data;             /* echoed by PONG; <= QMC_PROTO_MAX_PING */
 } qmc_msg_ping;
 
-/* How POINTS data travels (POINTS offset 3): in POINTS_CHUNK frames, or
- * through the connection's shared-memory ring (POINTS_SHM_CHUNK). */
+/* How POINTS and PIXELS data travels (their transport byte): in
+ * POINTS_CHUNK frames, or through the connection's shared-memory ring
+ * (POINTS_SHM_CHUNK). */
 typedef enum qmc_points_transport {
     QMC_TRANSPORT_INLINE = 0,
     QMC_TRANSPORT_SHM = 1
@@ -165,6 +171,18 @@ typedef struct qmc_msg_points {
     qmc_points_transport transport;
     uint64_t start, count;
 } qmc_msg_points;
+
+/* PIXELS (version 4): the tile of the pixel sampler `spec` as
+ * qmc_pixels_fill writes it, answered like POINTS.  The answer's points
+ * are the tile's samples in output order, numbered from 0: point k is
+ * sample tile.sample_start + k % tile.sample_count of the tile's pixel
+ * k / tile.sample_count (row order), spec.dims values in `format`. */
+typedef struct qmc_msg_pixels {
+    qmc_pixel_spec spec;
+    qmc_pixel_tile tile;
+    qmc_format format;
+    qmc_points_transport transport;
+} qmc_msg_pixels;
 
 typedef struct qmc_msg_points_chunk {
     uint64_t first;           /* index of the chunk's first point */
@@ -297,6 +315,7 @@ typedef struct qmc_msg {
         qmc_msg_hello_ok hello_ok;
         qmc_msg_ping ping;            /* PING and PONG */
         qmc_msg_points points;
+        qmc_msg_pixels pixels;
         qmc_msg_points_chunk chunk;
         qmc_msg_end end;
         qmc_msg_integrate integrate;

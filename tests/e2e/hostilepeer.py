@@ -88,6 +88,9 @@ def sc_frames(d):
     pts = p0.points_frame(5, dims=2, count=4)[HEADER.size:]
     p0.close()
     ping = struct.pack("<H", 5) + b"hello"
+    # PIXELS (version 4, PROTOCOL.md section 6.20): zsobol 64x32, 16 spp,
+    # 2 dims, the 4x4 tile at the origin, all samples, f32, inline.
+    pix = struct.pack("<BBBBIIIIIQIIIIQQ", 1, 2, 0, 0, 64, 32, 0, 0, 2, 16, 0, 0, 4, 4, 0, 16)
     cases = [
         ("bad magic", header(magic=b"QMCX")),
         ("bad version 0", header(version=0)),
@@ -105,6 +108,12 @@ def sc_frames(d):
         ("POINTS long payload", frame(MSG["POINTS"], 9, pts + b"\0")),
         ("POINTS length 0", frame(MSG["POINTS"], 9)),
         ("INTEGRATE length 0", frame(MSG["INTEGRATE"], 9)),
+        ("PIXELS short payload", frame(MSG["PIXELS"], 9, pix[:-1])),
+        ("PIXELS long payload", frame(MSG["PIXELS"], 9, pix + b"\0")),
+        ("PIXELS length 0", frame(MSG["PIXELS"], 9)),
+        ("PIXELS sampler 0", frame(MSG["PIXELS"], 9, b"\0" + pix[1:])),
+        ("PIXELS format 9", frame(MSG["PIXELS"], 9, pix[:1] + b"\x09" + pix[2:])),
+        ("PIXELS reserved byte", frame(MSG["PIXELS"], 9, pix[:3] + b"\x01" + pix[4:])),
         ("INTEGRATE 3 bytes", frame(MSG["INTEGRATE"], 9, b"\x01\x02\x03")),
         ("JOB_CANCEL short", frame(MSG["JOB_CANCEL"], 9, b"\x01")),
         ("STATS with payload", frame(MSG["STATS"], 9, b"x")),

@@ -33,7 +33,7 @@ MSG = dict(HELLO=1, HELLO_OK=2, PING=3, PONG=4, POINTS=5, POINTS_CHUNK=6, END=7,
            INTEGRATE=8, JOB_ACCEPTED=9, JOB_PROGRESS=10, JOB_RESULT=11,
            JOB_STATUS=12, JOB_STATE=13, JOB_CANCEL=14, STATS=15, STATS_REPLY=16,
            ERROR=17, SHM_ATTACH=18, SHM_OK=19, POINTS_SHM_CHUNK=20, SHM_RELEASE=21,
-           AUTH_CHALLENGE=22, AUTH_RESPONSE=23, AUTH_OK=24)
+           AUTH_CHALLENGE=22, AUTH_RESPONSE=23, AUTH_OK=24, PIXELS=25)
 NAME = {v: k for k, v in MSG.items()}
 KIND = dict(sobol=1, halton=2, hammersley=3, random=4, stratified=5, lhs=6)
 SCRAMBLE = dict(none=0, shift=1, owen=2, faure=3)
@@ -52,8 +52,9 @@ RESULT_FLAGS_V1 = ["nonfinite", "heavy_tail", "not_pow2", "dims_past_good", "not
                    "error_unreliable", "zero_pdf"]
 RESULT_FLAGS_V3 = RESULT_FLAGS_V1 + ["few_nonzero", "zero_spread", "tail_untested",
                                      "unresolved", "mis_undersampled"]
-RESULT_FLAGS = {1: RESULT_FLAGS_V1, 2: RESULT_FLAGS_V1, 3: RESULT_FLAGS_V3}
-NEWEST_VERSION = 3
+RESULT_FLAGS = {1: RESULT_FLAGS_V1, 2: RESULT_FLAGS_V1, 3: RESULT_FLAGS_V3, 4: RESULT_FLAGS_V3}
+NEWEST_VERSION = 4  # version 4 adds PIXELS (section 6.20), no flag bits
+PIXEL_SAMPLER = {"zsobol": 1, "padded-sobol": 2, "sobol": 3}
 
 
 def flag_bit(name):

@@ -13,7 +13,7 @@ set -u
 : "${QMC:?set QMC to the qmc binary}"
 . "$(dirname "$0")/lib.sh"
 
-COMMANDS="points discrepancy spectrum integrate merge ping stats compare stability help"
+COMMANDS="points pixels discrepancy spectrum integrate merge ping stats compare stability help"
 
 # ---- the list ------------------------------------------------------------------
 if "$QMC" help >"$tmp/list" 2>"$tmp/err" && [ ! -s "$tmp/err" ]; then ok

@@ -4,7 +4,8 @@
 # every case: the daemon is alive, serves another client the same bytes as
 # `qmc points` in-process, and its VmRSS grew by less than RSS_MB.
 #   - hostile frames: bad magic, version, flags, lengths 0 / max / 2^32-1,
-#     unknown and server-only types, short and long payloads, a header cut
+#     unknown and server-only types, short and long payloads (POINTS,
+#     INTEGRATE, PIXELS), bad codes in PIXELS, a header cut
 #     short (EOF, and silence until frame-timeout-ms);
 #   - invalid POINTS and INTEGRATE specs (an ERROR, the connection lives);
 #   - 10,000 random frames; 40 slow-loris clients;

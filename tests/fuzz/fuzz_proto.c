@@ -30,6 +30,19 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
+/* 1 when a decoded PIXELS names a sampler and a format of their tables. */
+static int known_pixel_codes(const qmc_msg_pixels *p)
+{
+    int sampler = 0, format = 0;
+#define SAMPLER_IS(name, code, text) sampler |= p->spec.sampler == QMC_PIXEL_##name;
+    QMC_PIXEL_SAMPLER_MAP(SAMPLER_IS)
+#undef SAMPLER_IS
+#define FORMAT_IS(name, code, text, bytes) format |= p->format == QMC_FORMAT_##name;
+    QMC_FORMAT_MAP(FORMAT_IS)
+#undef FORMAT_IS
+    return sampler && format;
+}
+
 static uint8_t *again; /* room for one re-encoded frame of any size */
 
 static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
@@ -114,6 +127,12 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
             __builtin_trap();
         if (m.type == QMC_MSG_POINTS && m.u.points.transport != QMC_TRANSPORT_INLINE &&
             m.u.points.transport != QMC_TRANSPORT_SHM)
+            __builtin_trap();
+        /* PIXELS: the codes a daemon switches on are ones the tables have. */
+        if (m.type == QMC_MSG_PIXELS &&
+            ((m.u.pixels.transport != QMC_TRANSPORT_INLINE &&
+              m.u.pixels.transport != QMC_TRANSPORT_SHM) ||
+             !known_pixel_codes(&m.u.pixels)))
             __builtin_trap();
         off += (size_t)n;
     }

@@ -356,6 +356,30 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         for (unsigned i = 0; i < QMC_PROTO_AUTH_MAC_BYTES; i++)
             m->u.auth_ok.mac[i] = mx ? 0xff : ex ? auth_vectors[0].server_mac[i] : 0;
         break;
+    case QMC_MSG_PIXELS: {
+        /* The example: a 16 x 8 tile at (64, 32) of a 1920 x 1080 zsobol
+         * image at 16 spp, samples 4..11, 5 values each, as f32.  The
+         * minimal variant is all zeros but the codes, which the codec
+         * takes (zero sizes are the daemon's to refuse). */
+        qmc_msg_pixels *p = &m->u.pixels;
+        m->request_id = ex ? 10 : m->request_id;
+        p->spec.sampler = mx ? QMC_PIXEL_SOBOL : QMC_PIXEL_ZSOBOL;
+        p->format = mx ? QMC_FORMAT_U32 : ex ? QMC_FORMAT_F32 : QMC_FORMAT_F64;
+        p->transport = mx ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
+        p->spec.width = mx ? UINT32_MAX : ex ? 1920 : 0;
+        p->spec.height = mx ? UINT32_MAX : ex ? 1080 : 0;
+        p->spec.seed = mx ? UINT32_MAX : ex ? 7 : 0;
+        p->spec.frame = mx ? UINT32_MAX : ex ? 2 : 0;
+        p->spec.dims = mx ? UINT32_MAX : ex ? 5 : 0;
+        p->spec.spp = mx ? UINT64_MAX : ex ? 16 : 0;
+        p->tile.x = mx ? UINT32_MAX : ex ? 64 : 0;
+        p->tile.y = mx ? UINT32_MAX : ex ? 32 : 0;
+        p->tile.width = mx ? UINT32_MAX : ex ? 16 : 0;
+        p->tile.height = mx ? UINT32_MAX : ex ? 8 : 0;
+        p->tile.sample_start = mx ? UINT64_MAX : ex ? 4 : 0;
+        p->tile.sample_count = mx ? UINT64_MAX : ex ? 8 : 0;
+        break;
+    }
     }
 }
 
@@ -560,6 +584,25 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_AUTH_OK:
         assert_memory_equal(a->u.auth_ok.mac, b->u.auth_ok.mac, QMC_PROTO_AUTH_MAC_BYTES);
         break;
+    case QMC_MSG_PIXELS: {
+        const qmc_msg_pixels *p = &a->u.pixels, *q = &b->u.pixels;
+        assert_int_equal(p->spec.sampler, q->spec.sampler);
+        assert_int_equal(p->format, q->format);
+        assert_int_equal(p->transport, q->transport);
+        assert_int_equal(p->spec.width, q->spec.width);
+        assert_int_equal(p->spec.height, q->spec.height);
+        assert_int_equal(p->spec.seed, q->spec.seed);
+        assert_int_equal(p->spec.frame, q->spec.frame);
+        assert_int_equal(p->spec.dims, q->spec.dims);
+        assert_true(p->spec.spp == q->spec.spp);
+        assert_int_equal(p->tile.x, q->tile.x);
+        assert_int_equal(p->tile.y, q->tile.y);
+        assert_int_equal(p->tile.width, q->tile.width);
+        assert_int_equal(p->tile.height, q->tile.height);
+        assert_true(p->tile.sample_start == q->tile.sample_start);
+        assert_true(p->tile.sample_count == q->tile.sample_count);
+        break;
+    }
     }
 }
 
@@ -666,7 +709,7 @@ static void test_bad_header(void **state)
     static const struct {
         size_t off;
         uint8_t value;
-    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 25}, {5, 255},
+    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 26}, {5, 255},
                {6, 1}, {7, 0x80}, {20, 1}, {23, 0x80}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         memcpy(frame2, frame, n);
@@ -865,6 +908,12 @@ static const mutation mutations[] = {
     {QMC_MSG_AUTH_CHALLENGE, 0, 2, 2, "a version without the handshake"},
     {QMC_MSG_AUTH_CHALLENGE, 0, 2, 0, "version 0"},
     {QMC_MSG_AUTH_CHALLENGE, 2, 2, 1, "reserved"},
+    {QMC_MSG_PIXELS, 0, 1, 0, "pixel sampler 0"},
+    {QMC_MSG_PIXELS, 0, 1, 4, "pixel sampler 4"},
+    {QMC_MSG_PIXELS, 1, 1, 0, "format 0"},
+    {QMC_MSG_PIXELS, 1, 1, 4, "format 4"},
+    {QMC_MSG_PIXELS, 2, 1, 2, "transport 2"},
+    {QMC_MSG_PIXELS, 3, 1, 1, "reserved"},
 };
 
 static void test_mutations(void **state)
@@ -1025,8 +1074,17 @@ static void test_encoder_refuses(void **state)
     build(QMC_MSG_PING, EXAMPLE, &m);
     m.type = (qmc_msg_type)0;
     refuse(&m, "type 0");
-    m.type = (qmc_msg_type)25;
-    refuse(&m, "type 25");
+    m.type = (qmc_msg_type)26;
+    refuse(&m, "type 26");
+    build(QMC_MSG_PIXELS, EXAMPLE, &m);
+    m.u.pixels.spec.sampler = (qmc_pixel_sampler)0;
+    refuse(&m, "pixel sampler 0");
+    build(QMC_MSG_PIXELS, EXAMPLE, &m);
+    m.u.pixels.format = (qmc_format)0;
+    refuse(&m, "format 0");
+    build(QMC_MSG_PIXELS, EXAMPLE, &m);
+    m.u.pixels.transport = (qmc_points_transport)2;
+    refuse(&m, "transport 2");
     build(QMC_MSG_AUTH_CHALLENGE, EXAMPLE, &m);
     m.u.challenge.version = QMC_PROTO_VERSION_AUTH - 1;
     refuse(&m, "a challenge for a version without the handshake");
