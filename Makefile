@@ -83,6 +83,8 @@ ifeq ($(shell uname -m),x86_64)
 $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
                                                 -mavx512bw -mavx512dq
+$(BUILD)/core/pixel_kernel_avx2.o: PRIVATE_INC := -Icore -mavx2
+$(BUILD)/core/pixel_kernel_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl -mavx512bw -mavx512dq
 endif
 $(BUILD)/daemon/modbus_rtu.o: PRIVATE_INC := $(MODBUS_CFLAGS)
 $(BUILD)/%.o: %.c

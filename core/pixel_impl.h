@@ -93,31 +93,71 @@ static inline uint32_t qmc__ceil_log2(uint64_t n)
     return n <= 1 ? 0 : 64u - (uint32_t)__builtin_clzll(n - 1);
 }
 
-/* ---- finishing: reversed-domain columns to the caller's format --------- */
+/* ---- finishing: staged values to the caller's format ------------------ */
 
 /*
- * A block of values still in the bit-reversed domain, column-major:
- * col[c * rows + r] is value (d0 + c) of the block's sample r.  Column c
- * is finished as reverse32(fast_owen_reversed(col, seed[c])), except the
- * first `plain` columns, which are only reversed (sobol's in-pixel
- * position is not scrambled).
+ * Fast fills stage a pass of nc values (columns) for each of rows samples
+ * in the bit-reversed domain, row-major, and a vector kernel finishes them
+ * into the caller's rows.  Value x of column c becomes
+ *   reverse32(fast_owen_reversed(T(x) ^ xorc[c], seed[c]))
+ * where T is the dimension-1 transform of sobol_wide.h for
+ * QMC__PIXEL_OWEN_DIM1 columns and the identity otherwise, and the Owen
+ * step is skipped for QMC__PIXEL_PLAIN columns.  In index mode x is
+ * PermutationElement(row, w + 1, perm[c]) of the row's sample (padded-sobol
+ * with a power-of-two spp), computed in the kernel.
+ *
+ * The kernel works on whole vectors of the flat row-major block, so each
+ * column's parameters are laid out once per pass as lane patterns of
+ * period lcm(nc, 16) lanes; a pass has nc <= 16, or nc a multiple of 16 up
+ * to 64 (qmc__pixel_pass_cols), so a period is at most 240 lanes.
  */
-typedef struct qmc__pixel_block {
-    uint32_t *col;
-    const uint32_t *seed;
-    uint32_t cols, rows, plain;
-} qmc__pixel_block;
+enum { QMC__PIXEL_PLAIN = 0, QMC__PIXEL_OWEN = 1, QMC__PIXEL_OWEN_DIM1 = 2 };
 
-/* Words of stack a sampler's block may use: 16 KiB. */
-#define QMC__PIXEL_BLOCK_WORDS 4096u
+#define QMC__PIXEL_MAX_PERIOD 240u
+#define QMC__PIXEL_MAX_COLS 64u
+/* Staged words per block (8 KiB), and the lanes every block is padded to. */
+#define QMC__PIXEL_STAGE_WORDS 2048u
+#define QMC__PIXEL_PAD 16u
+
+typedef struct qmc__pixel_pattern {
+    uint32_t nc, period, rows_per_period, any_plain, any_dim1;
+    uint32_t rowoff[QMC__PIXEL_MAX_PERIOD]; /* lane's row within its period */
+    uint32_t dim1[QMC__PIXEL_MAX_PERIOD];   /* all ones on DIM1 lanes */
+    uint32_t owen[QMC__PIXEL_MAX_PERIOD];   /* all ones on scrambled lanes */
+    uint32_t xorc[QMC__PIXEL_MAX_PERIOD];
+    uint32_t seed[QMC__PIXEL_MAX_PERIOD];
+    uint32_t smul[QMC__PIXEL_MAX_PERIOD];   /* (seed >> 16) | 1 */
+    uint32_t perm[QMC__PIXEL_MAX_PERIOD];
+} qmc__pixel_pattern;
+
+/* Columns of the pass that starts at value d0 of dims. */
+uint32_t qmc__pixel_pass_cols(uint32_t dims, uint32_t d0);
+
+/* Lays out a pass of nc columns with their modes. */
+void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t *mode);
+
+/* Lays out the columns' parameters (any pointer may be NULL: unchanged). */
+void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc,
+                            const uint32_t *seed, const uint32_t *perm);
 
 /*
- * Finishes the block in place and writes it row-major: value c of row r
- * goes to element r * stride + c of out (in the format's element size),
- * stride being the spec's dims.
+ * Finishes rows x nc staged values and writes value c of row r at element
+ * r * stride + c of out, in the format.  in holds the block row-major,
+ * readable up to a multiple of QMC__PIXEL_PAD words; in == NULL is index
+ * mode, rows being samples row_start .. and w + 1 the power-of-two spp.
+ * When nc < stride, scratch (rows * nc doubles) stages the rows.  Picks
+ * the widest kernel the CPU runs; every kernel gives the same bits.
  */
-void qmc__pixel_block_store(const qmc__pixel_block *b, qmc_format fmt, void *out,
-                            size_t stride);
+void qmc__pixel_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
+                     uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
+                     void *scratch);
+
+/*
+ * zsobol's digit-permutation hashes for n consecutive tree nodes:
+ * out[j] = (MixBits((key0 + j) ^ salt) >> 24) % 24, or MixBits(...) & 1
+ * when bit, written up to n rounded up to 8.
+ */
+void qmc__pixel_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
 
 /* One finished value in a format, at element k of out. */
 static inline void qmc__pixel_store(void *out, size_t k, uint32_t v, qmc_format fmt)
