@@ -83,6 +83,7 @@ int qmc_pixels_new(const qmc_pixel_spec *spec, qmc_pixels **out)
     p->frame_mix = qmc__frame_mix(spec->frame);
     p->log2_res = qmc__ceil_log2(spec->width > spec->height ? spec->width : spec->height);
     p->tables = tables ? (char *)p + head : NULL;
+    p->isa = qmc__pixel_isa();
     ops->init(p);
     *out = p;
     return 0;

@@ -40,6 +40,7 @@ struct qmc_pixels {
     uint64_t sample_end; /* one past the largest sample index */
     uint64_t frame_mix;  /* qmc__frame_mix(spec.frame) */
     uint32_t log2_res;   /* log2 of RoundUpPow2(max(width, height)) */
+    int isa;             /* the kernels fills use: qmc__pixel_isa() */
     void *tables;        /* sampler-owned, allocated with the instance */
 };
 
@@ -140,15 +141,20 @@ void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t 
 void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc,
                             const uint32_t *seed, const uint32_t *perm);
 
+/* The widest kernel build this CPU runs: 2 AVX-512, 1 AVX2, 0 baseline.
+ * Every build gives the same bits; tests run each on one instance by
+ * setting its isa field. */
+int qmc__pixel_isa(void);
+
 /*
  * Finishes rows x nc staged values and writes value c of row r at element
  * r * stride + c of out, in the format.  in holds the block row-major,
  * readable up to a multiple of QMC__PIXEL_PAD words; in == NULL is index
  * mode, rows being samples row_start .. and w + 1 the power-of-two spp.
- * When nc < stride, scratch (rows * nc doubles) stages the rows.  Picks
- * the widest kernel the CPU runs; every kernel gives the same bits.
+ * When nc < stride, scratch (rows * nc doubles) stages the rows.  isa
+ * picks the kernel build (at most qmc__pixel_isa()).
  */
-void qmc__pixel_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
+void qmc__pixel_emit(int isa, const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
                      uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
                      void *scratch);
 
@@ -157,7 +163,7 @@ void qmc__pixel_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t 
  * out[j] = (MixBits((key0 + j) ^ salt) >> 24) % 24, or MixBits(...) & 1
  * when bit, written up to n rounded up to 8.
  */
-void qmc__pixel_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
+void qmc__pixel_nodes(int isa, uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
 
 /* One finished value in a format, at element k of out. */
 static inline void qmc__pixel_store(void *out, size_t k, uint32_t v, qmc_format fmt)

@@ -86,22 +86,27 @@ void qmc__pixel_emit_avx512(const qmc__pixel_pattern *pt, const uint32_t *in,
 void qmc__pixel_nodes_avx2(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
 void qmc__pixel_nodes_avx512(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
 
-/* 2: AVX-512 (F, VL, BW, DQ, as seq_sobol.c asks), 1: AVX2, 0: baseline. */
-static int isa(void)
+#endif
+
+/* AVX-512 needs F, VL, BW and DQ, as seq_sobol.c asks. */
+int qmc__pixel_isa(void)
 {
+#ifdef PIXEL_KERNEL_X86
     if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
         __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq"))
         return 2;
     return __builtin_cpu_supports("avx2") ? 1 : 0;
-}
+#else
+    return 0;
 #endif
+}
 
-void qmc__pixel_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
+void qmc__pixel_emit(int isa, const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
                      uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
                      void *scratch)
 {
 #ifdef PIXEL_KERNEL_X86
-    switch (isa()) {
+    switch (isa) {
     case 2:
         qmc__pixel_emit_avx512(pt, in, row_start, w, rows, fmt, out, stride, scratch);
         return;
@@ -113,10 +118,10 @@ void qmc__pixel_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t 
     pk_emit(pt, in, row_start, w, rows, fmt, out, stride, scratch);
 }
 
-void qmc__pixel_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out)
+void qmc__pixel_nodes(int isa, uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out)
 {
 #ifdef PIXEL_KERNEL_X86
-    switch (isa()) {
+    switch (isa) {
     case 2:
         qmc__pixel_nodes_avx512(key0, salt, n, bit, out);
         return;

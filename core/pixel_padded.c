@@ -11,6 +11,8 @@
  * Must not: answer a sample at or past spp (pixel.c refuses it), or
  * allocate in a fill.
  */
+#include <string.h>
+
 #include "pixel_impl.h"
 #include "sobol_wide.h"
 
@@ -59,9 +61,69 @@ static uint32_t padded_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
     return qmc__reverse32(qmc__fast_owen_reversed(index, (uint32_t)h));
 }
 
+/*
+ * Fills pixel by pixel: per pixel and pair one hash gives the index
+ * shuffle and both scrambles; for a power-of-two spp the kernel computes
+ * the shuffled indices itself (no cycle walking is ever needed), other
+ * spp are staged here by qmc__permutation_element32.  Dimension 0 of the
+ * shuffled index in the reversed domain is the index itself, dimension 1
+ * its superset transform (sobol_wide.h).
+ */
 static void padded_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format fmt, void *out)
 {
-    qmc__pixel_fill_from_at(p, t, fmt, out);
+    const uint64_t spp = p->spec.spp;
+    const uint32_t dims = p->spec.dims;
+    const int pow2 = (spp & (spp - 1)) == 0;
+    const size_t esize = qmc_format_bytes(fmt);
+    uint32_t in[QMC__PIXEL_STAGE_WORDS + QMC__PIXEL_PAD];
+    double scratch[QMC__PIXEL_STAGE_WORDS];
+    qmc__pixel_pattern pt;
+    uint8_t mode[QMC__PIXEL_MAX_COLS];
+    uint32_t seed[QMC__PIXEL_MAX_COLS], perm[QMC__PIXEL_MAX_COLS];
+    uint32_t zero[QMC__PIXEL_MAX_COLS] = {0};
+    memset(in, 0, sizeof in); /* the pad lanes the kernel reads past a block */
+    for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
+        nc = qmc__pixel_pass_cols(dims, d0);
+        const uint32_t np = (nc + 1) / 2;
+        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
+        if (rows > t->sample_count)
+            rows = (uint32_t)t->sample_count;
+        for (uint32_t c = 0; c < nc; c++)
+            mode[c] = c & 1u ? QMC__PIXEL_OWEN_DIM1 : QMC__PIXEL_OWEN;
+        qmc__pixel_pattern_init(&pt, nc, mode);
+        qmc__pixel_pattern_set(&pt, zero, NULL, NULL);
+        uint64_t pixel = 0;
+        for (uint32_t y = t->y; y < t->y + t->height; y++)
+            for (uint32_t x = t->x; x < t->x + t->width; x++, pixel++) {
+                for (uint32_t k = 0; k < np; k++) {
+                    const uint64_t h = padded_hash(p, x, y, d0 + 2 * k);
+                    perm[2 * k] = perm[2 * k + 1] = (uint32_t)h;
+                    seed[2 * k] = (uint32_t)h;
+                    seed[2 * k + 1] = (uint32_t)(h >> 32);
+                }
+                qmc__pixel_pattern_set(&pt, NULL, seed, perm);
+                for (uint64_t a = 0; a < t->sample_count; a += rows) {
+                    const uint32_t n =
+                        t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
+                    const uint64_t s0 = t->sample_start + a;
+                    char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
+                    if (pow2) {
+                        qmc__pixel_emit(p->isa, &pt, NULL, s0, (uint32_t)(spp - 1), n, fmt, o,
+                                        dims, scratch);
+                        continue;
+                    }
+                    for (uint32_t k = 0; k < np; k++)
+                        for (uint32_t r = 0; r < n; r++) {
+                            const uint32_t v = qmc__permutation_element32((uint32_t)(s0 + r), spp,
+                                                                          perm[2 * k]);
+                            in[r * nc + 2 * k] = v;
+                            if (2 * k + 1 < nc)
+                                in[r * nc + 2 * k + 1] = v;
+                        }
+                    qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
+                }
+            }
+    }
 }
 
 const qmc__pixel_ops qmc__pixel_padded = {

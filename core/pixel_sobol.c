@@ -14,6 +14,8 @@
  * Must not: allocate in a fill, or move values 0 and 1 out of their pixel
  * (frames scramble them only inside it).
  */
+#include <string.h>
+
 #include "pixel_impl.h"
 #include "sobol_wide.h"
 
@@ -163,9 +165,92 @@ static uint32_t sobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t s
     return qmc__fast_owen(v, sobol_seed(p, x, y, d));
 }
 
+/* Column d's value at index i, in the reversed domain, pre-shifted for the
+ * in-pixel position (d < 2): reverse32(v << m) = reverse32(v) >> m. */
+static inline uint32_t rev_value(const sobol_tables *s, uint32_t d, uint64_t i)
+{
+    const uint32_t r = qmc__reverse32(
+        qmc__sobol_wide_gather(s->cols + (size_t)d * QMC__SOBOL_WIDE_COLS, i));
+    return d >= 2 ? r : s->m == 32 ? 0 : r >> s->m;
+}
+
+/* Sample-part steps cached per pass: from f to f + 1 the index's sample
+ * part changes by S(2^(t+1) - 1), t = ctz(f + 1); rarer larger t gather. */
+#define SOBOL_STEPS 12u
+
+/*
+ * Fills a sample block at a time, for every pixel.  The index splits as
+ * i = P(x, y) ^ S(f) (sobol_index: the pixel's bits and the sample's), and
+ * Sobol' values are linear over XOR, so a value is A_d(pixel) ^ B_d(f):
+ * B is staged once per block and shared by all pixels (walked from one
+ * sample to the next by one XOR, as seq_sobol.c walks its points), A is
+ * one gather per pixel and value.  The kernel scrambles and reverses.
+ */
 static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format fmt, void *out)
 {
-    qmc__pixel_fill_from_at(p, t, fmt, out);
+    const sobol_tables *s = p->tables;
+    const uint32_t dims = p->spec.dims;
+    const size_t esize = qmc_format_bytes(fmt);
+    const int framed = p->frame_mix != 0;
+    uint32_t in[QMC__PIXEL_STAGE_WORDS + QMC__PIXEL_PAD];
+    double scratch[QMC__PIXEL_STAGE_WORDS];
+    qmc__pixel_pattern pt;
+    uint8_t mode[QMC__PIXEL_MAX_COLS];
+    uint32_t seed[QMC__PIXEL_MAX_COLS], xorc[QMC__PIXEL_MAX_COLS];
+    uint32_t step[SOBOL_STEPS][QMC__PIXEL_MAX_COLS];
+    memset(in, 0, sizeof in); /* the pad lanes the kernel reads past a block */
+    for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
+        nc = qmc__pixel_pass_cols(dims, d0);
+        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
+        if (rows > t->sample_count)
+            rows = (uint32_t)t->sample_count;
+        for (uint32_t c = 0; c < nc; c++) {
+            const uint32_t d = d0 + c;
+            mode[c] = d < 2 && !framed ? QMC__PIXEL_PLAIN : QMC__PIXEL_OWEN;
+            seed[c] = s->seed[d];
+        }
+        qmc__pixel_pattern_init(&pt, nc, mode);
+        if (!framed)
+            qmc__pixel_pattern_set(&pt, NULL, seed, NULL);
+        for (uint32_t k = 0; k < SOBOL_STEPS; k++) {
+            const uint64_t h = sobol_index(s, 0, 0, (2ull << k) - 1);
+            for (uint32_t c = 0; c < nc; c++)
+                step[k][c] = rev_value(s, d0 + c, h);
+        }
+        for (uint64_t a = 0; a < t->sample_count; a += rows) {
+            const uint32_t n =
+                t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
+            /* B: row r holds the sample part of sample start + a + r. */
+            const uint64_t f0 = t->sample_start + a;
+            for (uint32_t r = 0; r < n; r++) {
+                uint32_t *row = in + (size_t)r * nc;
+                const uint64_t f = f0 + r;
+                const uint32_t tz = r ? (uint32_t)__builtin_ctzll(f) : 64;
+                if (tz < SOBOL_STEPS) {
+                    const uint32_t *prev = row - nc;
+                    for (uint32_t c = 0; c < nc; c++)
+                        row[c] = prev[c] ^ step[tz][c];
+                } else {
+                    const uint64_t h = sobol_index(s, 0, 0, f);
+                    for (uint32_t c = 0; c < nc; c++)
+                        row[c] = rev_value(s, d0 + c, h);
+                }
+            }
+            uint64_t pixel = 0;
+            for (uint32_t y = t->y; y < t->y + t->height; y++)
+                for (uint32_t x = t->x; x < t->x + t->width; x++, pixel++) {
+                    const uint64_t h = sobol_index(s, x, y, 0);
+                    for (uint32_t c = 0; c < nc; c++) {
+                        xorc[c] = rev_value(s, d0 + c, h);
+                        if (framed)
+                            seed[c] = sobol_seed(p, x, y, d0 + c);
+                    }
+                    qmc__pixel_pattern_set(&pt, xorc, framed ? seed : NULL, NULL);
+                    char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
+                    qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
+                }
+        }
+    }
 }
 
 const qmc__pixel_ops qmc__pixel_sobol = {

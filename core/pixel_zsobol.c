@@ -153,9 +153,10 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
  * the bottom: for odd L, pbrt's lone bit 0, hashed from the bits above it.
  * v[j][m] holds the permuted bits above level j of level j's node m.
  */
-static void sample_part(const zsobol_tables *z, uint64_t mpix, uint64_t salt, uint64_t a,
+static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint64_t a,
                         uint32_t n, uint32_t *dst, uint32_t stride, int both)
 {
+    const zsobol_tables *z = p->tables;
     const uint32_t L = z->log2_spp, odd = L & 1u, nl = (L + odd) / 2;
     if (nl == 0) {
         for (uint32_t r = 0; r < n; r++, dst += stride) {
@@ -181,7 +182,7 @@ static void sample_part(const zsobol_tables *z, uint64_t mpix, uint64_t salt, ui
         const uint32_t cnt = (uint32_t)(m1 - m0 + 1);
         first[j] = (uint32_t)m0;
         base[j] = used;
-        qmc__pixel_nodes((mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0), perm + used);
+        qmc__pixel_nodes(p->isa, (mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0), perm + used);
         uint32_t *v = val + used;
         if (j + 1 == nl) {
             for (uint32_t m = 0; m < cnt; m++)
@@ -294,10 +295,10 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
                     const uint32_t n =
                         t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
                     for (uint32_t k = 0; k < np; k++)
-                        sample_part(z, mpix, salt[k], t->sample_start + a, n, in + 2 * k, nc,
+                        sample_part(p, mpix, salt[k], t->sample_start + a, n, in + 2 * k, nc,
                                     2 * k + 1 < nc);
                     char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
-                    qmc__pixel_emit(&pt, in, 0, 0, n, fmt, o, dims, scratch);
+                    qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }
             }
     }

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pixel_impl.h"
 #include "qmc/pixel.h"
 
 static const qmc_pixel_sampler all[] = {QMC_PIXEL_ZSOBOL, QMC_PIXEL_PADDED_SOBOL,
@@ -177,6 +178,29 @@ static void test_fill_equals_at_huge(void **state)
     qmc_pixels_free(p);
 }
 
+/* Every kernel build this CPU runs (baseline, AVX2, AVX-512) gives the
+ * same bits as at(), over passes of every shape (nc <= 16 with lane
+ * patterns of period up to 240, multiples of 16, a remainder) and both
+ * staged and index-mode padded-sobol. */
+static void test_instruction_sets_agree(void **state)
+{
+    (void)state;
+    static const uint32_t dims[] = {3, 8, 15, 16, 37, 70};
+    const int best = qmc__pixel_isa();
+    int runs = 0;
+    for (int isa = 0; isa <= best; isa++)
+        for (size_t s = 0; s < 3; s++)
+            for (size_t j = 0; j < sizeof dims / sizeof dims[0]; j++) {
+                const uint64_t spp = all[s] == QMC_PIXEL_PADDED_SOBOL && j % 2 ? 24 : 32;
+                qmc_pixels *p = make(all[s], 20, 12, spp, 77, (uint32_t)j % 2, dims[j]);
+                p->isa = isa;
+                check_tile(p, tile(17, 9, 3, 3, 5, spp - 5));
+                qmc_pixels_free(p);
+                runs++;
+            }
+    print_message("kernel builds compared: %d of 3 (runs %d)\n", best + 1, runs);
+}
+
 /* An odd dims count ends with the first value of the next pair, and the
  * dims count never changes a value. */
 static void test_odd_dims_and_prefixes(void **state)
@@ -331,6 +355,7 @@ int main(void)
         cmocka_unit_test(test_fill_equals_at_edges),
         cmocka_unit_test(test_fill_equals_at_blocks),
         cmocka_unit_test(test_fill_equals_at_huge),
+        cmocka_unit_test(test_instruction_sets_agree),
         cmocka_unit_test(test_odd_dims_and_prefixes),
         cmocka_unit_test(test_spec_limits),
         cmocka_unit_test(test_tile_limits),
