@@ -122,7 +122,9 @@ enum { QMC__PIXEL_PLAIN = 0, QMC__PIXEL_OWEN = 1, QMC__PIXEL_OWEN_DIM1 = 2 };
 
 typedef struct qmc__pixel_pattern {
     uint32_t nc, period, rows_per_period, any_plain, any_dim1;
+    uint32_t paired, in_per_period;         /* staged words per period */
     uint32_t rowoff[QMC__PIXEL_MAX_PERIOD]; /* lane's row within its period */
+    uint32_t src[QMC__PIXEL_MAX_PERIOD];    /* lane's staged word in its period */
     uint32_t dim1[QMC__PIXEL_MAX_PERIOD];   /* all ones on DIM1 lanes */
     uint32_t owen[QMC__PIXEL_MAX_PERIOD];   /* all ones on scrambled lanes */
     uint32_t xorc[QMC__PIXEL_MAX_PERIOD];
@@ -134,8 +136,11 @@ typedef struct qmc__pixel_pattern {
 /* Columns of the pass that starts at value d0 of dims. */
 uint32_t qmc__pixel_pass_cols(uint32_t dims, uint32_t d0);
 
-/* Lays out a pass of nc columns with their modes. */
-void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t *mode);
+/* Lays out a pass of nc columns with their modes.  Staged rows hold nc
+ * words, or with paired one word per pair of columns (2k, 2k + 1), both
+ * columns reading it: (nc + 1) / 2 words per row. */
+void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t *mode,
+                             int paired);
 
 /* Lays out the columns' parameters (any pointer may be NULL: unchanged). */
 void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc,
@@ -149,7 +154,7 @@ int qmc__pixel_isa(void);
 /*
  * Finishes rows x nc staged values and writes value c of row r at element
  * r * stride + c of out, in the format.  in holds the block row-major,
- * readable up to a multiple of QMC__PIXEL_PAD words; in == NULL is index
+ * readable QMC__PIXEL_PAD words past its end; in == NULL is index
  * mode, rows being samples row_start .. and w + 1 the power-of-two spp.
  * When nc < stride, scratch (rows * nc doubles) stages the rows.  isa
  * picks the kernel build (at most qmc__pixel_isa()).

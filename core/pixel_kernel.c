@@ -33,7 +33,8 @@ uint32_t qmc__pixel_pass_cols(uint32_t dims, uint32_t d0)
     return left >= 16 ? left & ~15u : left;
 }
 
-void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t *mode)
+void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t *mode,
+                             int paired)
 {
     /* lcm(nc, 16): nc <= 16 or a multiple of 16, so at most 240. */
     uint32_t g = nc, b = 16;
@@ -46,9 +47,16 @@ void qmc__pixel_pattern_init(qmc__pixel_pattern *pt, uint32_t nc, const uint8_t 
     pt->period = nc / g * 16;
     pt->rows_per_period = pt->period / nc;
     pt->any_plain = pt->any_dim1 = 0;
+    pt->paired = paired != 0;
+    const uint32_t width = paired ? (nc + 1) / 2 : nc;
+    pt->in_per_period = pt->rows_per_period * width;
     for (uint32_t l = 0; l < pt->period; l++) {
         const uint32_t c = l % nc;
         pt->rowoff[l] = l / nc;
+        /* A vector's lanes read at most PK_VW consecutive words from the
+         * first one's: nc <= 16 lanes span < 16 / nc + 1 rows of nc / 2
+         * words, and 16 lanes of one row 8 pairs. */
+        pt->src[l] = pt->rowoff[l] * width + (paired ? c / 2 : c);
         pt->dim1[l] = mode[c] == QMC__PIXEL_OWEN_DIM1 ? ~0u : 0;
         pt->owen[l] = mode[c] == QMC__PIXEL_PLAIN ? 0 : ~0u;
         pt->any_dim1 |= mode[c] == QMC__PIXEL_OWEN_DIM1;
@@ -73,6 +81,19 @@ void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc, const 
 }
 
 /* ---- dispatch ---------------------------------------------------------------- */
+
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+#if defined(__clang__)
+    /* clang has no variable-index vector shuffle builtin. */
+    pk_u r;
+    for (int l = 0; l < PK_VW; l++)
+        r[l] = x[idx[l] & (PK_VW - 1)];
+    return r;
+#else
+    return __builtin_shuffle(x, idx);
+#endif
+}
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PIXEL_KERNEL_X86 1

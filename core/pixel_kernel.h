@@ -13,8 +13,8 @@
  * lane patterns (pixel_impl.h), scrambles, reverses once and stores in
  * the caller's format - no transposition.
  *
- * Must not: allocate, or read a staged block past its size rounded up to
- * QMC__PIXEL_PAD lanes (the callers pad their blocks that far).
+ * Must not: allocate, or read more than QMC__PIXEL_PAD words past a
+ * staged block's end (the callers' staging arrays have that much more).
  */
 #include <string.h>
 
@@ -30,9 +30,11 @@ typedef int32_t pk_i __attribute__((vector_size(PK_VW * 4)));
 typedef float pk_f __attribute__((vector_size(PK_VW * 4)));
 typedef uint8_t pk_b __attribute__((vector_size(PK_VW * 4)));
 
-/* Bit reversal of each lane: defined by the including file, with the best
- * byte shuffle its instruction set has. */
+/* Bit reversal of each lane, and lane l of the result = lane idx[l] of x
+ * (idx < PK_VW): defined by the including file, with the best shuffles
+ * its instruction set has. */
 static inline pk_u pk_reverse(pk_u x);
+static inline pk_u pk_permute(pk_u x, pk_u idx);
 
 static inline pk_u pk_load(const uint32_t *p)
 {
@@ -93,12 +95,17 @@ static inline pk_q pk_mix_bits(pk_q v)
 /*
  * out[j] = (MixBits((key0 + j) ^ salt) >> 24) % 24 for j < n (written up
  * to n rounded up to PK_QW), or MixBits(...) & 1 when bit.  The modulo
- * without a division: x % 24 = 8 ((x >> 3) % 3) + (x & 7), and a residue
- * mod 3 survives folding a number's high part onto its low part at any
- * even bit position (4 = 1 mod 3).
+ * without a division: x = h >> 24 < 2^40 is exact in a double (built from
+ * its bits), and q = floor(x / 24) is x / 24 - 11.5 / 24 rounded to the
+ * nearest integer - the fraction r / 24 - 11.5 / 24 stays 0.02 away from
+ * a half, and the double arithmetic errs by under 2^-16 - rounded by
+ * adding 1.5 2^52, whose ulp is 1.  Then x % 24 = x - 24 q.
  */
 static inline void pk_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out)
 {
+    typedef double pk_qd __attribute__((vector_size(PK_VW * 4)));
+    const uint64_t exp52 = 0x4330000000000000ull;  /* the bits of 2^52 */
+    const uint64_t magic = 0x4338000000000000ull;  /* the bits of 1.5 2^52 */
     pk_q k = (pk_q){0} + key0;
     for (uint32_t l = 0; l < PK_QW; l++)
         k[l] += l;
@@ -108,16 +115,11 @@ static inline void pk_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, u
         if (bit) {
             r = h & 1u;
         } else {
-            pk_q y = h >> 27; /* (h >> 24) >> 3 < 2^37 */
-            y = (y >> 32) + (y & 0xffffffffu);
-            y = (y >> 16) + (y & 0xffffu);
-            y = (y >> 8) + (y & 0xffu);
-            y = (y >> 4) + (y & 0xfu);
-            y = (y >> 2) + (y & 3u);
-            y = (y >> 2) + (y & 3u);
-            y = (y >> 2) + (y & 3u); /* now 0 .. 4 */
-            y -= (pk_q)(y >= 3u) & 3u;
-            r = (y << 3) | ((h >> 24) & 7u);
+            const pk_q x = h >> 24;
+            const pk_qd d = (pk_qd)(x | exp52) - 0x1p52;
+            const pk_qd z = (d * (1.0 / 24) - 11.5 / 24) + 0x1.8p52;
+            const pk_q q = (pk_q)z - magic;
+            r = x - ((q << 4) + (q << 3));
         }
         const pk_q8 b = __builtin_convertvector(r, pk_q8);
         memcpy(out + j, &b, sizeof b);
@@ -149,29 +151,46 @@ static inline pk_u pk_perm(pk_u i, uint32_t w, pk_u p)
     return (i + p) & w;
 }
 
-/* One vector of finished values: lanes q .. q + PK_VW - 1 of the block,
- * at offset po of the pattern period. */
+/* A vector's worth of a pattern: the lanes at offset po of the period. */
+typedef struct pk_lanes {
+    pk_u rowoff, perm, src, dim1, xorc, seed, smul, owen;
+    uint32_t base; /* the first lane's staged word */
+} pk_lanes;
+
+static inline __attribute__((always_inline)) pk_lanes pk_lanes_at(const qmc__pixel_pattern *pt,
+                                                                  uint32_t po)
+{
+    pk_lanes v;
+    v.rowoff = pk_load(pt->rowoff + po);
+    v.perm = pk_load(pt->perm + po);
+    v.base = pt->src[po];
+    v.src = pk_load(pt->src + po) - v.base;
+    v.dim1 = pk_load(pt->dim1 + po);
+    v.xorc = pk_load(pt->xorc + po);
+    v.seed = pk_load(pt->seed + po);
+    v.smul = pk_load(pt->smul + po);
+    v.owen = pk_load(pt->owen + po);
+    return v;
+}
+
+/* One vector of finished values, from the staged words of its period
+ * (in) or, in index mode, from the period's first row row0. */
 static inline __attribute__((always_inline)) pk_u
-pk_value(const qmc__pixel_pattern *pt, const uint32_t *in, size_t q, uint32_t po, uint32_t row0,
-         uint32_t w, int index_mode, int any_dim1, int any_plain)
+pk_value(const pk_lanes *v, const uint32_t *in, uint32_t row0, uint32_t w, int index_mode,
+         int paired, int any_dim1, int any_plain)
 {
     pk_u x;
     if (index_mode)
-        x = pk_perm(pk_splat(row0) + pk_load(pt->rowoff + po), w, pk_load(pt->perm + po));
+        x = pk_perm(pk_splat(row0) + v->rowoff, w, v->perm);
+    else if (paired) /* both columns of a pair read its one staged word */
+        x = pk_permute(pk_load(in + v->base), v->src);
     else
-        x = pk_load(in + q);
-    if (any_dim1) {
-        const pk_u m = pk_load(pt->dim1 + po);
-        x = (pk_dim1(x) & m) | (x & ~m);
-    }
-    x ^= pk_load(pt->xorc + po);
-    const pk_u y = pk_owen(x, pk_load(pt->seed + po), pk_load(pt->smul + po));
-    if (any_plain) {
-        const pk_u m = pk_load(pt->owen + po);
-        x = (y & m) | (x & ~m);
-    } else {
-        x = y;
-    }
+        x = pk_load(in + v->base);
+    if (any_dim1)
+        x = (pk_dim1(x) & v->dim1) | (x & ~v->dim1);
+    x ^= v->xorc;
+    const pk_u y = pk_owen(x, v->seed, v->smul);
+    x = any_plain ? (y & v->owen) | (x & ~v->owen) : y;
     return pk_reverse(x);
 }
 
@@ -190,7 +209,10 @@ static inline __attribute__((always_inline)) void pk_put(void *dst, size_t k, pk
         /* u32 -> f64 and the power-of-two scale are exact. */
         pk_d d[2] = {__builtin_convertvector(lo, pk_d) * 0x1p-32,
                      __builtin_convertvector(hi, pk_d) * 0x1p-32};
-        memcpy((double *)dst + k, d, n * sizeof(double));
+        if (n == PK_VW) /* a constant size: vector stores, not a call */
+            memcpy((double *)dst + k, d, sizeof d);
+        else
+            memcpy((double *)dst + k, d, n * sizeof(double));
         return;
     }
     if (fmt == QMC_FORMAT_F32) {
@@ -206,17 +228,42 @@ static inline __attribute__((always_inline)) void pk_put(void *dst, size_t k, pk
 
 static inline __attribute__((always_inline)) void
 pk_run(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start, uint32_t w,
-       uint32_t rows, qmc_format fmt, void *dst, int index_mode, int any_dim1, int any_plain)
+       uint32_t rows, qmc_format fmt, void *dst, int index_mode, int paired, int any_dim1,
+       int any_plain)
 {
     const size_t total = (size_t)rows * pt->nc;
-    uint32_t po = 0, row0 = (uint32_t)row_start;
+    uint32_t row0 = (uint32_t)row_start;
+    if (pt->period <= 2 * PK_VW) {
+        /* One or two vectors per period (nc divides 16 or is 32, AVX2's
+         * 8 lanes): the pattern stays in registers. */
+        const int two = pt->period == 2 * PK_VW;
+        const pk_lanes v0 = pk_lanes_at(pt, 0), v1 = pk_lanes_at(pt, two ? PK_VW : 0);
+        for (size_t q = 0; q < total;) {
+            pk_u x = pk_value(&v0, in, row0, w, index_mode, paired, any_dim1, any_plain);
+            pk_put(dst, q, x, total - q < PK_VW ? (uint32_t)(total - q) : PK_VW, fmt);
+            q += PK_VW;
+            if (two && q < total) {
+                x = pk_value(&v1, in, row0, w, index_mode, paired, any_dim1, any_plain);
+                pk_put(dst, q, x, total - q < PK_VW ? (uint32_t)(total - q) : PK_VW, fmt);
+                q += PK_VW;
+            }
+            row0 += pt->rows_per_period;
+            if (!index_mode)
+                in += pt->in_per_period;
+        }
+        return;
+    }
+    uint32_t po = 0;
     for (size_t q = 0; q < total; q += PK_VW) {
-        const pk_u x = pk_value(pt, in, q, po, row0, w, index_mode, any_dim1, any_plain);
+        const pk_lanes v = pk_lanes_at(pt, po);
+        const pk_u x = pk_value(&v, in, row0, w, index_mode, paired, any_dim1, any_plain);
         pk_put(dst, q, x, total - q < PK_VW ? (uint32_t)(total - q) : PK_VW, fmt);
         po += PK_VW;
         if (po == pt->period) {
             po = 0;
             row0 += pt->rows_per_period;
+            if (!index_mode)
+                in += pt->in_per_period;
         }
     }
 }
@@ -226,15 +273,14 @@ static inline __attribute__((always_inline)) void
 pk_run_fmt(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start, uint32_t w,
            uint32_t rows, qmc_format fmt, void *dst)
 {
-    const int im = in == NULL;
-    if (im) /* padded-sobol: index mode, dimension-1 lanes */
-        pk_run(pt, in, row_start, w, rows, fmt, dst, 1, 1, 0);
-    else if (pt->any_dim1) /* zsobol, padded-sobol by table */
-        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 1, 0);
+    if (in == NULL) /* padded-sobol, power-of-two spp: index mode */
+        pk_run(pt, in, row_start, w, rows, fmt, dst, 1, 0, 1, 0);
+    else if (pt->paired) /* zsobol, padded-sobol's other spp */
+        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 1, 1, 0);
     else if (pt->any_plain) /* sobol at frame 0 */
-        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 0, 1);
+        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 0, 0, 1);
     else
-        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 0, 0);
+        pk_run(pt, in, row_start, w, rows, fmt, dst, 0, 0, 0, 0);
 }
 
 static inline void pk_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,

@@ -4,6 +4,9 @@
  * pixel_kernel.c calls them only when the CPU reports AVX2; -mavx2 does
  * not enable FMA and the build uses -ffp-contract=off, so the bits equal
  * the baseline's.
+ *
+ * Must not: be called on a CPU without AVX2 (pixel_kernel.c asks the
+ * CPU first), or differ from the baseline build in one bit.
  */
 #if defined(__x86_64__) && defined(__GNUC__) && defined(__AVX2__)
 #include <immintrin.h>
@@ -31,6 +34,11 @@ static inline pk_u pk_reverse(pk_u x)
     __m256i high = _mm256_and_si256(_mm256_srli_epi16(v, 4), nib);
     return (pk_u)_mm256_or_si256(_mm256_shuffle_epi8(rev_hi, low),
                                  _mm256_shuffle_epi8(rev_lo, high));
+}
+
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+    return (pk_u)_mm256_permutevar8x32_epi32((__m256i)x, (__m256i)idx);
 }
 
 void qmc__pixel_emit_avx2(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,

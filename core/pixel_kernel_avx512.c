@@ -3,6 +3,9 @@
  * AVX-512 (F, VL, BW, DQ; the Makefile sets the flags for this file on
  * x86-64), 16 lanes.  pixel_kernel.c calls them only when the CPU reports
  * those extensions; the bits equal the baseline build's.
+ *
+ * Must not: be called on a CPU without AVX-512 F, VL, BW and DQ (pixel_kernel.c asks the
+ * CPU first), or differ from the baseline build in one bit.
  */
 #if defined(__x86_64__) && defined(__GNUC__) && defined(__AVX512BW__)
 #include <immintrin.h>
@@ -29,6 +32,11 @@ static inline pk_u pk_reverse(pk_u x)
     __m512i high = _mm512_and_si512(_mm512_srli_epi16(v, 4), nib);
     return (pk_u)_mm512_or_si512(_mm512_shuffle_epi8(rev_hi, low),
                                  _mm512_shuffle_epi8(rev_lo, high));
+}
+
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+    return (pk_u)_mm512_permutexvar_epi32((__m512i)idx, (__m512i)x);
 }
 
 void qmc__pixel_emit_avx512(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,

@@ -85,12 +85,14 @@ static void padded_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
     for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
         nc = qmc__pixel_pass_cols(dims, d0);
         const uint32_t np = (nc + 1) / 2;
-        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
+        /* Rows per block: the staging holds np words a row; the scratch
+         * (nc values a row) serves only passes narrower than a row. */
+        uint32_t rows = QMC__PIXEL_STAGE_WORDS / (nc == dims ? np : nc);
         if (rows > t->sample_count)
             rows = (uint32_t)t->sample_count;
         for (uint32_t c = 0; c < nc; c++)
             mode[c] = c & 1u ? QMC__PIXEL_OWEN_DIM1 : QMC__PIXEL_OWEN;
-        qmc__pixel_pattern_init(&pt, nc, mode);
+        qmc__pixel_pattern_init(&pt, nc, mode, 1);
         qmc__pixel_pattern_set(&pt, zero, NULL, NULL);
         uint64_t pixel = 0;
         for (uint32_t y = t->y; y < t->y + t->height; y++)
@@ -116,9 +118,7 @@ static void padded_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
                         for (uint32_t r = 0; r < n; r++) {
                             const uint32_t v = qmc__permutation_element32((uint32_t)(s0 + r), spp,
                                                                           perm[2 * k]);
-                            in[r * nc + 2 * k] = v;
-                            if (2 * k + 1 < nc)
-                                in[r * nc + 2 * k + 1] = v;
+                            in[r * np + k] = v;
                         }
                     qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }

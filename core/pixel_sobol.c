@@ -209,7 +209,7 @@ static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format 
             mode[c] = d < 2 && !framed ? QMC__PIXEL_PLAIN : QMC__PIXEL_OWEN;
             seed[c] = s->seed[d];
         }
-        qmc__pixel_pattern_init(&pt, nc, mode);
+        qmc__pixel_pattern_init(&pt, nc, mode, 0);
         if (!framed)
             qmc__pixel_pattern_set(&pt, NULL, seed, NULL);
         for (uint32_t k = 0; k < SOBOL_STEPS; k++) {

@@ -26,6 +26,14 @@ static const uint8_t perm4[24][4] = {
     {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 3, 0, 1}, {2, 3, 1, 0},
     {3, 1, 2, 0}, {3, 1, 0, 2}, {3, 2, 1, 0}, {3, 2, 0, 1}, {3, 0, 2, 1}, {3, 0, 1, 2}};
 
+/* The same rows as 32-bit lanes, for four children at once. */
+typedef uint32_t zs_u4 __attribute__((vector_size(16)));
+static const zs_u4 perm4w[24] = {
+    {0, 1, 2, 3}, {0, 1, 3, 2}, {0, 2, 1, 3}, {0, 2, 3, 1}, {0, 3, 2, 1}, {0, 3, 1, 2},
+    {1, 0, 2, 3}, {1, 0, 3, 2}, {1, 2, 0, 3}, {1, 2, 3, 0}, {1, 3, 2, 0}, {1, 3, 0, 2},
+    {2, 1, 0, 3}, {2, 1, 3, 0}, {2, 0, 1, 3}, {2, 0, 3, 1}, {2, 3, 0, 1}, {2, 3, 1, 0},
+    {3, 1, 2, 0}, {3, 1, 0, 2}, {3, 2, 1, 0}, {3, 2, 0, 1}, {3, 0, 2, 1}, {3, 0, 1, 2}};
+
 typedef struct zsobol_tables {
     uint32_t log2_spp; /* L: the sample's bits at the bottom of the index */
     uint32_t digits;   /* pbrt's nBase4Digits: log2 res + ceil(L / 2) */
@@ -145,7 +153,7 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
 /*
  * The fast fill's sample part: the permuted low L bits of the index for
  * samples a .. a + n - 1 of one pixel and pair (L <= 32, n <= the staging
- * rows), written to dst[r * stride] (and dst[r * stride + 1] when both).
+ * rows), written to dst[r * stride].
  * The sample's digits form a tree: a digit's permutation depends only on
  * the digits above it, so each tree level is hashed once per node, the
  * nodes of a level at once (qmc__pixel_nodes) - 1 + 4 + 16 + ... hashes
@@ -154,21 +162,20 @@ static uint32_t zsobol_at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t 
  * v[j][m] holds the permuted bits above level j of level j's node m.
  */
 static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint64_t a,
-                        uint32_t n, uint32_t *dst, uint32_t stride, int both)
+                        uint32_t n, uint32_t *dst, uint32_t stride)
 {
     const zsobol_tables *z = p->tables;
     const uint32_t L = z->log2_spp, odd = L & 1u, nl = (L + odd) / 2;
     if (nl == 0) {
-        for (uint32_t r = 0; r < n; r++, dst += stride) {
+        for (uint32_t r = 0; r < n; r++, dst += stride)
             dst[0] = 0;
-            if (both)
-                dst[1] = 0;
-        }
         return;
     }
     /* Node m of level j spans samples [m 2^top, (m + 1) 2^top); its hash
      * key is the Morton index above them: (mpix >> top) + m. */
-    enum { NODES = QMC__PIXEL_STAGE_WORDS / 2 + 8 * 17 };
+    /* Level j has at most n / 2^top[j] + 2 nodes, each level rounded up
+     * to 8: with top = 1, 3, 5, ... (odd L) under 2n / 3 + 9 per level. */
+    enum { NODES = QMC__PIXEL_STAGE_WORDS * 2 / 3 + 9 * 17 + 16 };
     uint8_t perm[NODES + 16];
     uint32_t val[NODES];
     uint32_t first[17], base[17], sh[17], top[17];
@@ -182,15 +189,27 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         const uint32_t cnt = (uint32_t)(m1 - m0 + 1);
         first[j] = (uint32_t)m0;
         base[j] = used;
-        qmc__pixel_nodes(p->isa, (mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0), perm + used);
+        qmc__pixel_nodes(p->isa, (mpix >> top[j]) + m0, salt, cnt, (int)(odd && j == 0),
+                         perm + used);
         uint32_t *v = val + used;
         if (j + 1 == nl) {
             for (uint32_t m = 0; m < cnt; m++)
                 v[m] = 0;
         } else {
-            /* A node's parent is m >> 2 one level up, its digit there m & 3. */
+            /* A node's parent is m >> 2 one level up, its digit there m & 3:
+             * the four children of a parent at once, from its row. */
             const uint32_t pb = base[j + 1], pf = first[j + 1], s1 = sh[j + 1];
-            for (uint32_t m = 0; m < cnt; m++) {
+            uint32_t m = 0;
+            for (; m < cnt && ((first[j] + m) & 3u); m++) {
+                const uint32_t mm = first[j] + m, q = (mm >> 2) - pf;
+                v[m] = val[pb + q] | (uint32_t)perm4[perm[pb + q]][mm & 3u] << s1;
+            }
+            for (; cnt - m >= 4; m += 4) {
+                const uint32_t q = ((first[j] + m) >> 2) - pf;
+                const zs_u4 kids = ((zs_u4){0} + val[pb + q]) | (perm4w[perm[pb + q]] << s1);
+                memcpy(v + m, &kids, sizeof kids);
+            }
+            for (; m < cnt; m++) {
                 const uint32_t mm = first[j] + m, q = (mm >> 2) - pf;
                 v[m] = val[pb + q] | (uint32_t)perm4[perm[pb + q]][mm & 3u] << s1;
             }
@@ -205,17 +224,19 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         for (; i < end; i++, dst += stride) {
             const uint32_t m = (uint32_t)(i >> 1) - first[0];
             dst[0] = v0[m] | ((uint32_t)(i & 1u) ^ p0[m]);
-            if (both)
-                dst[1] = dst[0];
         }
         return;
     }
     for (; i < end && (i & 3u); i++, dst += stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0];
         dst[0] = v0[m] | perm4[p0[m]][i & 3u];
-        if (both)
-            dst[1] = dst[0];
     }
+    if (stride == 1) /* one pair a row: a node's four samples are adjacent */
+        for (; end - i >= 4; i += 4, dst += 4) {
+            const uint32_t m = (uint32_t)(i >> 2) - first[0];
+            const zs_u4 four = ((zs_u4){0} + v0[m]) | perm4w[p0[m]];
+            memcpy(dst, &four, sizeof four);
+        }
     for (; end - i >= 4; i += 4, dst += 4 * stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0], up = v0[m];
         const uint8_t *row = perm4[p0[m]];
@@ -223,18 +244,10 @@ static void sample_part(const qmc_pixels *p, uint64_t mpix, uint64_t salt, uint6
         dst[stride] = up | row[1];
         dst[2 * stride] = up | row[2];
         dst[3 * stride] = up | row[3];
-        if (both) {
-            dst[1] = dst[0];
-            dst[stride + 1] = dst[stride];
-            dst[2 * stride + 1] = dst[2 * stride];
-            dst[3 * stride + 1] = dst[3 * stride];
-        }
     }
     for (; i < end; i++, dst += stride) {
         const uint32_t m = (uint32_t)(i >> 2) - first[0];
         dst[0] = v0[m] | perm4[p0[m]][i & 3u];
-        if (both)
-            dst[1] = dst[0];
     }
 }
 
@@ -265,7 +278,9 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
     for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
         nc = qmc__pixel_pass_cols(dims, d0);
         const uint32_t np = (nc + 1) / 2;
-        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
+        /* Rows per block: the staging holds np words a row; the scratch
+         * (nc values a row) serves only passes narrower than a row. */
+        uint32_t rows = QMC__PIXEL_STAGE_WORDS / (nc == dims ? np : nc);
         if (rows > t->sample_count)
             rows = (uint32_t)t->sample_count;
         for (uint32_t k = 0; k < np; k++) {
@@ -278,7 +293,7 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
             mode[2 * k] = QMC__PIXEL_OWEN;
             mode[2 * k + 1] = QMC__PIXEL_OWEN_DIM1;
         }
-        qmc__pixel_pattern_init(&pt, nc, mode);
+        qmc__pixel_pattern_init(&pt, nc, mode, 1);
         qmc__pixel_pattern_set(&pt, NULL, seed, NULL);
         uint64_t pixel = 0;
         for (uint32_t y = t->y; y < t->y + t->height; y++)
@@ -295,8 +310,7 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
                     const uint32_t n =
                         t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
                     for (uint32_t k = 0; k < np; k++)
-                        sample_part(p, mpix, salt[k], t->sample_start + a, n, in + 2 * k, nc,
-                                    2 * k + 1 < nc);
+                        sample_part(p, mpix, salt[k], t->sample_start + a, n, in + k, np);
                     char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
                     qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }

@@ -3,10 +3,11 @@
  * loading and checking the key file, deciding which connections must
  * authenticate, running the server's half of the handshake through the
  * pure state machine of protocol/auth.c, locking out an address after
- * repeated failures, and ending every handshake with HELLO_OK (with or
- * without a key).  AUTH_RESPONSE reaches it through its row of the
- * dispatch table (qmcd_auth_module), which also frees a connection's
- * handshake state when the connection goes.
+ * repeated failures: the whole handshake, HELLO (version and frame size),
+ * the challenge when a key is required, and HELLO_OK.  HELLO and
+ * AUTH_RESPONSE reach it through its rows of the dispatch table
+ * (qmcd_auth_module), which also frees a connection's handshake state
+ * when the connection goes.
  *
  * Who must authenticate: with a key loaded, every TCP connection (loopback
  * too: every local user can reach it), and Unix-socket connections when
@@ -276,11 +277,6 @@ static void record_success(qmcd_auth *a, const char *addr)
 
 /* ---- the hooks ------------------------------------------------------------------ */
 
-int qmcd_auth_pending(const qmcd_conn *c)
-{
-    return c->auth != NULL;
-}
-
 /* Frees c's handshake state (done, or the connection is going away). */
 static void auth_conn_free(qmcd_conn *c)
 {
@@ -288,8 +284,10 @@ static void auth_conn_free(qmcd_conn *c)
     c->auth = NULL;
 }
 
-void qmcd_auth_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
-                        uint32_t client_max_frame, int64_t t0)
+/* Ends the handshake: HELLO_OK with version and our limits, after HELLO
+ * (no authentication required) or a good AUTH_RESPONSE. */
+static void hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
+                     uint32_t client_max_frame, int64_t t0)
 {
     c->hello_done = 1;
     c->version = version;
@@ -312,9 +310,12 @@ void qmcd_auth_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
 }
 
 
-int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
+/* After HELLO's checks: 0 when this connection needs no authentication
+ * (the caller answers HELLO_OK), 1 when the handshake is taken over: we
+ * sent AUTH_CHALLENGE, or failed the connection (locked-out address, a
+ * client that cannot speak version 3). */
+static int challenge(qmcd_conn *c, const qmc_msg *m)
 {
-    (void)t0_us;
     if (!must_authenticate(c))
         return 0;
     qmcd_server *srv = c->srv;
@@ -367,6 +368,48 @@ int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us)
     return 1;
 }
 
+/* HELLO: the highest version both sides speak (PROTOCOL.md section 4). */
+#define SERVER_VERSION_MIN 1u
+#define SERVER_VERSION_MAX QMC_PROTO_VERSION_MAX
+
+/* The smallest max_frame a client may announce (PROTOCOL.md section 4):
+ * every answer but a POINTS_CHUNK then fits. */
+#define MIN_CLIENT_FRAME 65536u
+
+/* HELLO: the version both speak and the client's frame size, then a
+ * challenge or HELLO_OK. */
+static void on_hello(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
+{
+    (void)fd;
+    const qmc_msg_hello *h = &m->u.hello;
+    if (c->hello_done || c->auth) {
+        qmcd_conn_fail(c, m->request_id, QMC_EPROTO, "HELLO sent twice");
+        return;
+    }
+    if (h->version_min > SERVER_VERSION_MAX || h->version_max < SERVER_VERSION_MIN) {
+        qmcd_conn_fail(c, m->request_id, QMC_ENOTSUP,
+                       "no common protocol version: client speaks %u..%u, server %u..%u",
+                       h->version_min, h->version_max, SERVER_VERSION_MIN, SERVER_VERSION_MAX);
+        return;
+    }
+    if (h->max_frame < MIN_CLIENT_FRAME) {
+        qmcd_conn_fail(c, m->request_id, QMC_EINVAL,
+                       "HELLO max_frame %u is below the minimum of %u bytes", h->max_frame,
+                       MIN_CLIENT_FRAME);
+        return;
+    }
+    qmcd_debug("conn %llu: HELLO from '%.*s'", (unsigned long long)c->id,
+               (int)h->client.len, h->client.ptr ? h->client.ptr : "");
+    /* A listener that requires the key: we challenge, and answer HELLO_OK
+     * once the proof is good (on_response). */
+    if (challenge(c, m))
+        return;
+    hello_ok(
+        c, m->request_id,
+        (uint16_t)(h->version_max < SERVER_VERSION_MAX ? h->version_max : SERVER_VERSION_MAX),
+        h->max_frame, t0);
+}
+
 static void on_response(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     (void)fd; /* only QMCD_ROUTE_FD rows get one */
@@ -398,12 +441,13 @@ static void on_response(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     auth_conn_free(c);
     qmcd_debug("conn %llu (%s): authenticated", (unsigned long long)c->id, c->peer);
     if (qmcd_conn_send(c, &ok) == 0)
-        qmcd_auth_hello_ok(c, id, version, max_frame, t0_us);
+        hello_ok(c, id, version, max_frame, t0_us);
 }
 
 const qmcd_module qmcd_auth_module = {
     .name = "auth",
     .routes = (const qmcd_route[]){
+        {QMC_MSG_HELLO, QMCD_ROUTE_REQUEST, on_hello},
         {QMC_MSG_AUTH_RESPONSE, 0, on_response},
         {0, 0, NULL},
     },

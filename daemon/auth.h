@@ -39,26 +39,10 @@ int qmcd_auth_has_key(const qmcd_auth *a);
  * IPv4-mapped 127.x.  0.0.0.0 and :: (every interface) are not. */
 int qmcd_auth_is_loopback(const struct sockaddr *sa);
 
-/*
- * The HELLO hook (dispatch.c), after the version and max_frame checks.
- * Returns 0 when this connection needs no authentication (the caller
- * answers HELLO_OK), 1 when auth.c has taken the handshake over: it sent
- * AUTH_CHALLENGE, or failed the connection (locked-out address, a client
- * that cannot speak version 3).
- */
-int qmcd_auth_on_hello(qmcd_conn *c, const qmc_msg *m, int64_t t0_us);
-
-/* AUTH_RESPONSE is qmcd_auth_module's row (modules.h): on a good proof it
- * sends AUTH_OK and HELLO_OK; otherwise it fails the connection
- * (QMC_EAUTH or QMC_EPROTO).  The module frees a connection's handshake
- * state when the connection goes. */
-
-/* 1 while c has been challenged and owes its AUTH_RESPONSE. */
-int qmcd_auth_pending(const qmcd_conn *c);
-
-/* Ends the handshake: HELLO_OK with version and our limits, after HELLO
- * (no authentication required: dispatch.c) or a good AUTH_RESPONSE. */
-void qmcd_auth_hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
-                        uint32_t client_max_frame, int64_t t0_us);
+/* HELLO and AUTH_RESPONSE are qmcd_auth_module's rows (modules.h): HELLO
+ * is answered HELLO_OK, or AUTH_CHALLENGE when this connection must prove
+ * it holds the key; a good AUTH_RESPONSE gets AUTH_OK and HELLO_OK, a bad
+ * one fails the connection (QMC_EAUTH or QMC_EPROTO).  While a challenge
+ * awaits its answer, the connection's auth field is set. */
 
 #endif

@@ -69,7 +69,8 @@ struct qmcd_conn {
     unsigned n_producers;        /* on that list */
     unsigned n_bulk;             /* of them QMCD_PRODUCER_BULK */
     qmcd_pool_tenant *tenant;    /* its share of the worker pool (pool.c), or NULL */
-    uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths */
+    uint64_t cancel_tokens;      /* max-cancels-per-conn bucket, in 1/60000ths
+                                    (producer.c) */
     int64_t cancel_refill_ms;    /* when it was last refilled, or 0: full */
     qmcd_ring *ring;             /* the client's shared-memory ring (ring.h),
                                     or NULL */
@@ -77,8 +78,10 @@ struct qmcd_conn {
                                     (auth.c), or NULL */
 };
 
-/* Accept handler for a listening socket's watch. */
+/* Accept handler for a listening socket's watch (conn_accept.c). */
 void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events);
+/* A connection's own watch handler (conn.c), set by conn_accept.c. */
+void qmcd__conn_on_event(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 
 /* Loop housekeeping (see loop.c). */
 void qmcd_conns_tick(qmcd_server *srv, int64_t now_ms);

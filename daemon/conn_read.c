@@ -31,7 +31,6 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
-#include "auth.h"
 #include "conn.h"
 #include "conn_read.h"
 #include "dispatch.h"
@@ -118,7 +117,7 @@ static void parse_frames_inner(qmcd_conn *c)
          * type is never a request.  The handler would refuse them too,
          * but only after up to max-frame bytes had been buffered. */
         if (!c->hello_done && type != QMC_MSG_HELLO &&
-            !(type == QMC_MSG_AUTH_RESPONSE && qmcd_auth_pending(c))) {
+            !(type == QMC_MSG_AUTH_RESPONSE && c->auth)) {
             c->srv->stats.malformed++;
             qmcd_conn_fail(c, id, QMC_EPROTO, "the first frame must be HELLO, not %s",
                            qmc_msg_type_name(type));

@@ -15,6 +15,9 @@
  * wedged in a handler is killed and restarted by systemd, which a ping
  * from a thread of its own would hide.
  *
+ * Registering a descriptor (qmcd_loop_add, _mod, _del) is watch.c's, so
+ * the files that register one do not depend on this one.
+ *
  * This file must not know the protocol: it dispatches events to watches
  * and decides when the process stops.
  */
@@ -34,34 +37,8 @@
 #include "listen.h"
 #include "log.h"
 #include "loop.h"
-#include "main.h"
 #include "modbus_bridge.h"
-
-int qmcd_loop_add(qmcd_server *srv, qmcd_watch *w, uint32_t events)
-{
-    struct epoll_event ev = {.events = events, .data.ptr = w};
-    if (epoll_ctl(srv->epfd, EPOLL_CTL_ADD, w->fd, &ev) != 0)
-        return -errno;
-    w->events = events;
-    return 0;
-}
-
-int qmcd_loop_mod(qmcd_server *srv, qmcd_watch *w, uint32_t events)
-{
-    if (w->events == events)
-        return 0;
-    struct epoll_event ev = {.events = events, .data.ptr = w};
-    if (epoll_ctl(srv->epfd, EPOLL_CTL_MOD, w->fd, &ev) != 0)
-        return -errno;
-    w->events = events;
-    return 0;
-}
-
-void qmcd_loop_del(qmcd_server *srv, qmcd_watch *w)
-{
-    (void)epoll_ctl(srv->epfd, EPOLL_CTL_DEL, w->fd, NULL);
-    w->events = 0;
-}
+#include "reload.h"
 
 /* Stops accepting, drops the socket files, and gives running work until
  * shutdown-timeout-ms before it is cancelled. */
@@ -80,7 +57,7 @@ static void begin_drain(qmcd_server *srv, const char *why)
     snprintf(status, sizeof status, "STOPPING=1\nSTATUS=stopping (%s): %llu job(s) get %llu ms",
              why, (unsigned long long)srv->n_jobs,
              (unsigned long long)srv->cfg.shutdown_timeout_ms);
-    qmcd_main_notify(srv, status);
+    qmcd_notify(srv, status);
 }
 
 static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -89,7 +66,7 @@ static void on_signal(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     struct signalfd_siginfo si;
     while (read(w->fd, &si, sizeof si) == (ssize_t)sizeof si) {
         if (si.ssi_signo == SIGHUP)
-            qmcd_main_reload(srv);
+            qmcd_reload(srv);
         else if (si.ssi_signo == SIGTERM || si.ssi_signo == SIGINT)
             begin_drain(srv, si.ssi_signo == SIGTERM ? "SIGTERM" : "SIGINT");
     }
@@ -141,7 +118,7 @@ static void on_tick(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     if (srv->draining)
         drain_step(srv, now);
     if (srv->watchdog_ms && now >= srv->watchdog_next_ms) {
-        qmcd_main_notify(srv, "WATCHDOG=1");
+        qmcd_notify(srv, "WATCHDOG=1");
         srv->watchdog_next_ms = now + srv->watchdog_ms;
     }
 }

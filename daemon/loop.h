@@ -12,8 +12,8 @@
 int qmcd_loop_init(qmcd_server *srv);
 void qmcd_loop_close(qmcd_server *srv);
 
-/* Registers w for events (EPOLLIN/EPOLLOUT...), changes or removes it.
- * Return 0 or -errno. */
+/* Registers w for events (EPOLLIN/EPOLLOUT...), changes or removes it
+ * (watch.c).  Return 0 or -errno. */
 int qmcd_loop_add(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 int qmcd_loop_mod(qmcd_server *srv, qmcd_watch *w, uint32_t events);
 void qmcd_loop_del(qmcd_server *srv, qmcd_watch *w);

@@ -1,7 +1,7 @@
 /*
  * modbus_bridge.c - the Modbus bridge's lifecycle: reading its settings, opening
- * and starting the transports, the counters every transport shares, and
- * an orderly stop.  The transports themselves are modbus_tcp.c (the MBAP
+ * and starting the transports, and an orderly stop.  The counters every
+ * transport shares are modbus_counters.c.  The transports themselves are modbus_tcp.c (the MBAP
  * framing, non-blocking, on the loop) and modbus_rtu.c (a serial line
  * through libmodbus, on a thread of its own).
  *
@@ -15,29 +15,6 @@
 #include "log.h"
 #include "modbus_srv.h"
 #include "qmc/seq.h"
-
-#define QMCD_VERSION "0.1.0"
-
-void qmcd__modbus_env(qmcd_modbus *mb, qmc_modbus_env *env)
-{
-    memset(env, 0, sizeof *env);
-    int64_t up = qmcd_now_ms() - mb->started_ms;
-    env->uptime_s = up > 0 ? (uint64_t)up / 1000 : 0;
-    env->requests = atomic_load_explicit(&mb->ctr.requests, memory_order_relaxed);
-    env->exceptions = atomic_load_explicit(&mb->ctr.exceptions, memory_order_relaxed);
-    env->conns_accepted = atomic_load_explicit(&mb->ctr.conns_accepted, memory_order_relaxed);
-    env->conns_refused = atomic_load_explicit(&mb->ctr.conns_refused, memory_order_relaxed);
-    env->conns_open = atomic_load_explicit(&mb->ctr.conns_open, memory_order_relaxed);
-    env->sobol_table_hash = mb->srv->sobol_table_hash;
-    env->version = QMCD_VERSION;
-}
-
-void qmcd__modbus_count(qmcd_modbus *mb, const uint8_t *resp)
-{
-    atomic_fetch_add_explicit(&mb->ctr.requests, 1, memory_order_relaxed);
-    if (resp[0] & 0x80)
-        atomic_fetch_add_explicit(&mb->ctr.exceptions, 1, memory_order_relaxed);
-}
 
 int qmcd_modbus_open(qmcd_server *srv, char *why, size_t why_bytes)
 {

@@ -1,6 +1,7 @@
 /*
  * modbus_bridge.h - the Modbus bridge as the rest of the daemon sees it: a
- * handful of lifecycle calls from main.c and loop.c, nothing else.  The
+ * handful of lifecycle calls from main.c and loop.c, and its counters for
+ * STATS (status.c), nothing else.  The
  * transports (modbus_tcp.c, modbus_rtu.c) keep their own connections and
  * counters and never touch the protocol connections of conn.c.
  */

@@ -10,8 +10,8 @@
 #include "producer.h"
 
 #define QMCD_MODULES(X)                                                               \
-    X(qmcd_basic_module)  /* dispatch.c: HELLO, PING, STATS */                        \
-    X(qmcd_auth_module)   /* auth.c: AUTH_RESPONSE, and the handshake's state */      \
+    X(qmcd_status_module) /* status.c: PING, STATS */                                 \
+    X(qmcd_auth_module)   /* auth.c: HELLO, AUTH_RESPONSE (the handshake) */          \
     X(qmcd_shm_module)    /* shm.c: SHM_ATTACH, SHM_RELEASE (the client's ring) */    \
     X(qmcd_points_module) /* points.c: POINTS streams */                              \
     X(qmcd_jobs_module)   /* jobs.c: INTEGRATE jobs, JOB_STATUS, JOB_CANCEL */        \

@@ -12,15 +12,16 @@
  * same connection is answered between two chunks (frames are never split).
  *
  * Through the ring (POINTS_SHM_CHUNK, PROTOCOL.md section 10), qmc_seq_fill
- * writes into the next free slot of the client's memfd, mapped here, and
+ * writes into the next free slot of the client's memfd (ring.h), and
  * only a 48-byte frame naming the slot is queued.  A slot is free again
  * when SHM_RELEASE hands it back (oldest first), so the ring is the bound:
  * a client that never releases stalls its own shm streams and nothing
- * else, and costs no memory beyond its own ring.  Attaching the ring (and
- * what keeps its pages the client's) is ring.c.
+ * else, and costs no memory beyond its own ring.  Attaching the ring is
+ * shm.c, what keeps its pages the client's ring.c.
  *
- * Streams of one connection take turns, one chunk each; a stream that
- * cannot go on (no slot free, no output room) lets the others pass.
+ * Streams of one connection take turns with its other producers, one
+ * frame each (producer.c); a stream waiting for a slot lets the others
+ * pass.
  *
  * Sequence instances are immutable and can be large (Sobol at 21201
  * dimensions is about 5 MB and takes milliseconds to build), so streams

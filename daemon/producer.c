@@ -134,9 +134,17 @@ void qmcd_producers_drop_all(qmcd_conn *c)
 
 void qmcd_producers_tick(qmcd_conn *c, int64_t now_ms)
 {
-    for (qmcd_producer *p = c->producers; p && !c->dead && !c->closing; p = p->next)
+    for (qmcd_producer *p = c->producers; p;) {
+        /* A tick never unlinks p, but a send it makes may close the
+         * connection, which releases every producer: next is read first
+         * and used only while the connection stands. */
+        qmcd_producer *next = p->next;
         if (p->kind->tick)
             p->kind->tick(c, p, now_ms);
+        if (c->dead || c->closing)
+            return;
+        p = next;
+    }
 }
 
 int qmcd_producers_shutdown(qmcd_conn *c)

@@ -8,7 +8,8 @@
  * stream (points.c), an INTEGRATE job (jobs.c), a PIXELS tile, an
  * integration session.  Its kind is a const table of functions
  * (qmcd_producer_kind); the producer itself is a qmcd_producer embedded
- * first in the kind's own struct.  A connection holds its producers in one
+ * in the kind's own struct (first, so a cast finds the struct; jobs.c,
+ * whose first member is the pool's, uses offsetof).  A connection holds its producers in one
  * list, in turn order, and
  *   - pumps them when its output buffer may have room: each pump queues at
  *     most one frame and says how the producer stands (qmcd_pump);
@@ -126,16 +127,17 @@ struct qmcd_producer_kind {
     /* The shutdown deadline passed (shutdown-timeout-ms after SIGTERM).
      * Returns 0 when p stops by itself and answers (a job cancelled, its
      * ERROR follows), 1 when it cannot end cleanly and its connection must
-     * be cut (a stream).  NULL counts as 1. */
+     * be cut (a stream).  Sends nothing.  NULL counts as 1. */
     int (*shutdown)(qmcd_conn *c, qmcd_producer *p);
     /* p is off the connection's list: free it (or hand it to whoever still
      * holds it, like a worker).  With QMCD_END_DROPPED the connection is
-     * going away and must not be sent anything. */
+     * going away and must not be sent anything; with QMCD_END_ENDED the
+     * caller sends the ERROR.  Never sends. */
     void (*release)(qmcd_conn *c, qmcd_producer *p, qmcd_end why);
 };
 
-/* The part of a producer the connection reads and writes; embedded first
- * in the kind's own struct. */
+/* The part of a producer the connection reads and writes; embedded in
+ * the kind's own struct. */
 struct qmcd_producer {
     const qmcd_producer_kind *kind;
     qmcd_producer *next;          /* the connection's list, in turn order */

@@ -135,6 +135,13 @@ static void test_fill_equals_at_blocks(void **state)
             check_tile(p, tile(60, 61, 2, 2, spp > 8 ? 1000 : 3, spp > 8 ? 3000 : 5));
             qmc_pixels_free(p);
         }
+    /* One value per sample: the longest blocks, and zsobol's odd log2 spp
+     * has a tree node per 2 samples at the bottom. */
+    for (size_t s = 0; s < 3; s++) {
+        qmc_pixels *p = make(all[s], 3, 3, 1u << 13, 5, 2, 1);
+        check_tile(p, tile(1, 1, 2, 1, 0, 1u << 13));
+        qmc_pixels_free(p);
+    }
     /* padded-sobol's spp need not be a power of two (cycle walking). */
     qmc_pixels *p = make(QMC_PIXEL_PADDED_SOBOL, 33, 9, 1000, 5, 0, 6);
     check_tile(p, tile(30, 4, 3, 5, 0, 1000));
@@ -158,6 +165,14 @@ static void test_fill_equals_at_huge(void **state)
     p = make(QMC_PIXEL_ZSOBOL, 1, 1, 1ull << 63, 3, 0, 3);
     check_tile(p, tile(0, 0, 1, 1, (1ull << 63) - 100, 100));
     check_tile(p, tile(0, 0, 1, 1, 0xfffffffeull, 5));
+    qmc_pixels_free(p);
+    /* zsobol's fast path at its edge: sample parts of 32 and 31 bits. */
+    p = make(QMC_PIXEL_ZSOBOL, 2, 2, 1ull << 32, 9, 3, 5);
+    check_tile(p, tile(0, 1, 2, 1, (1ull << 32) - 37, 37));
+    check_tile(p, tile(1, 0, 1, 1, (1ull << 31) - 9, 20));
+    qmc_pixels_free(p);
+    p = make(QMC_PIXEL_ZSOBOL, 3, 2, 1ull << 31, 9, 0, 2);
+    check_tile(p, tile(2, 1, 1, 1, (1ull << 31) - 45, 45));
     qmc_pixels_free(p);
     /* padded-sobol: spp 2^32, the largest its shuffle takes. */
     p = make(QMC_PIXEL_PADDED_SOBOL, 3, big, 1ull << 32, 11, 0, 4);
@@ -199,6 +214,39 @@ static void test_instruction_sets_agree(void **state)
                 runs++;
             }
     print_message("kernel builds compared: %d of 3 (runs %d)\n", best + 1, runs);
+}
+
+/* zsobol's vector node hashes (MixBits, then mod 24 through a double)
+ * against the scalar definition, in every kernel build, over keys whose
+ * hashes reach every residue and the extremes of h >> 24. */
+static void test_node_hashes(void **state)
+{
+    (void)state;
+    enum { N = 4096 };
+    uint8_t got[N + 16];
+    uint64_t key = 0x0123456789abcdefull;
+    for (int isa = 0; isa <= qmc__pixel_isa(); isa++)
+        for (int round = 0; round < 64;
+             round++, key = key * 6364136223846793005ull + 1442695040888963407ull)
+            for (int bit = 0; bit < 2; bit++) {
+                const uint64_t salt = key >> 7;
+                qmc__pixel_nodes(isa, key, salt, N, bit, got);
+                for (uint32_t j = 0; j < N; j++) {
+                    const uint64_t h = qmc__mix_bits((key + j) ^ salt);
+                    assert_int_equal(got[j], bit ? h & 1u : (h >> 24) % 24);
+                }
+            }
+    /* The largest x = h >> 24 and the multiples of 24 around it: through
+     * the same double arithmetic, checked by brute force on the scalar
+     * mirror of the kernel's steps. */
+    for (uint64_t x = (1ull << 40) - 1; x > (1ull << 40) - 100000; x--) {
+        const double d = (double)x;
+        const double z = (d * (1.0 / 24) - 11.5 / 24) + 0x1.8p52;
+        uint64_t q;
+        memcpy(&q, &z, sizeof q);
+        q -= 0x4338000000000000ull;
+        assert_int_equal(x - 24 * q, x % 24);
+    }
 }
 
 /* An odd dims count ends with the first value of the next pair, and the
@@ -356,6 +404,7 @@ int main(void)
         cmocka_unit_test(test_fill_equals_at_blocks),
         cmocka_unit_test(test_fill_equals_at_huge),
         cmocka_unit_test(test_instruction_sets_agree),
+        cmocka_unit_test(test_node_hashes),
         cmocka_unit_test(test_odd_dims_and_prefixes),
         cmocka_unit_test(test_spec_limits),
         cmocka_unit_test(test_tile_limits),
