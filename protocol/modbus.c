@@ -67,12 +67,6 @@ const char *qmc_modbus_status_name(int code)
     return "";
 }
 
-static void put_u64(uint16_t *r, uint64_t v)
-{
-    for (int i = 0; i < 4; i++)
-        r[i] = (uint16_t)(v >> (48 - 16 * i));
-}
-
 static uint64_t get_u64(const uint16_t *r)
 {
     uint64_t v = 0;
@@ -156,7 +150,7 @@ static int compute(qmc_modbus_session *s)
     }
     uint16_t block[QMC_MODBUS_RESULT_REGS] = {0};
     block[0] = s->hr[QMC_MODBUS_HR_REQUEST];
-    put_u64(&block[2], index);
+    qmc__mb_regs_u64(&block[2], index);
     if (status == QMC_MODBUS_STATUS_OK && qmc_seq_range_check(s->seq, index, 1, NULL, 0) != 0)
         status = QMC_MODBUS_STATUS_BAD_INDEX;
     if (status == QMC_MODBUS_STATUS_OK) {
@@ -187,7 +181,7 @@ static int compute(qmc_modbus_session *s)
     memcpy(s->result, block, sizeof block);
     s->has_result = 1;
     if (status == QMC_MODBUS_STATUS_OK && s->hr[QMC_MODBUS_HR_AUTO_ADVANCE] == 1)
-        put_u64(&s->hr[QMC_MODBUS_HR_INDEX_3], index + 1);
+        qmc__mb_regs_u64(&s->hr[QMC_MODBUS_HR_INDEX_3], index + 1);
     return 0;
 }
 
@@ -265,8 +259,8 @@ static int read_regs(const qmc_modbus_session *s, const qmc_modbus_env *env, int
     if (input) {
         uint16_t ctr[4 * 6];
         uint16_t *p = ctr;
-#define PUT_CTR(name, field)               \
-    put_u64(p, env ? env->field : 0);      \
+#define PUT_CTR(name, field)                    \
+    qmc__mb_regs_u64(p, env ? env->field : 0); \
     p += 4;
         QMC_MODBUS_COUNTER_MAP(PUT_CTR)
 #undef PUT_CTR

@@ -113,12 +113,6 @@ static void put_u32(uint16_t *r, uint32_t v)
     r[1] = (uint16_t)v;
 }
 
-static void put_u64(uint16_t *r, uint64_t v)
-{
-    for (int i = 0; i < 4; i++)
-        r[i] = (uint16_t)(v >> (48 - 16 * i));
-}
-
 /* A binary32 from two registers in word order low_first (register 12). */
 static float f32_of(const uint16_t *r, int low_first)
 {
@@ -212,7 +206,7 @@ static uint32_t resolution_flags(const qmc_result *res, double bar)
 /* The session the setup registers ask for (low_first: their floats' word
  * order).  MODBUS.md section 9 gives the mapping; it follows `qmc
  * integrate`'s options (cli_integrate_spec). */
-static void spec_of(const qmc__mb_integ *g, int low_first, qmc_session_spec *ss)
+static void session_spec_of(const qmc__mb_integ *g, int low_first, qmc_session_spec *ss)
 {
     qmc_session_spec_init(ss);
     ss->dims = SETUP(g, DIMS);
@@ -340,7 +334,7 @@ static void start(qmc__mb_integ *g, const uint16_t *hr, const qmc_modbus_env *en
     g->has_final = 0;
     g->method_used = 0;
     qmc_session_spec ss;
-    spec_of(g, hr[QMC_MODBUS_HR_WORD_ORDER] == 1, &ss);
+    session_spec_of(g, hr[QMC_MODBUS_HR_WORD_ORDER] == 1, &ss);
     /* The bound first: a start the bank cannot hold allocates nothing. */
     uint64_t bound = qmc_session_memory_bytes(&ss);
     uint64_t need = sat_add(bound, QMC_MODBUS_SESSION_BATCH * sizeof *g->vals);
@@ -498,9 +492,9 @@ void qmc__mb_integ_render(const qmc__mb_integ *g, const uint16_t *hr,
                      : NAN;
     if (g->has_final)
         flags |= resolution_flags(&res, bar);
-    put_u64(&out[QMC_MODBUS_IB_EVALS], evals);
+    qmc__mb_regs_u64(&out[QMC_MODBUS_IB_EVALS], evals);
     put_u32(&out[QMC_MODBUS_IB_FLAGS], flags);
-    put_u64(&out[QMC_MODBUS_IB_NONFINITE], nonfinite);
+    qmc__mb_regs_u64(&out[QMC_MODBUS_IB_NONFINITE], nonfinite);
     put_f32(&out[QMC_MODBUS_IB_ESTIMATE_F32], to_f32(est), low_first);
     put_f32(&out[QMC_MODBUS_IB_BAR_F32], to_f32(bar), low_first);
     put_f64(&out[QMC_MODBUS_IB_ESTIMATE_F64], est, low_first);
@@ -508,7 +502,7 @@ void qmc__mb_integ_render(const qmc__mb_integ *g, const uint16_t *hr,
     uint64_t bytes = g->status == QMC_MODBUS_INTEG_WAITING
                          ? sat_add(g->sess_bytes, (uint64_t)g->vals_cap * sizeof *g->vals)
                          : g->bytes_needed;
-    put_u64(&out[QMC_MODBUS_IB_BYTES], bytes);
+    qmc__mb_regs_u64(&out[QMC_MODBUS_IB_BYTES], bytes);
 }
 
 void qmc__mb_integ_usage(const qmc__mb_integ *g, qmc_modbus_usage *out)
