@@ -25,6 +25,9 @@ failures.  The register map is written here from MODBUS.md.
                                          5B/2): the third session and a
                                          large one are refused, a closed
                                          one makes room
+  modbus_device.py rtu TTY SOCK          a device on a serial line (unit 5,
+                                         19200 8N1): auto on 1 dim, counted
+                                         in STATS while it runs
   modbus_device.py hold HOST PORT SOCK   starts a session, sees it in STATS,
                                          and leaves it
 """
@@ -34,7 +37,7 @@ import struct
 import subprocess
 import sys
 
-from pymodbus.client import ModbusTcpClient
+from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
 QMC = os.environ.get("QMC", "qmc")
 failures = 0
@@ -317,6 +320,34 @@ def memory(host, port, sock, one):
     c.close()
 
 
+def rtu(tty, sock):
+    # 8N1: pyserial 3.5 cannot set parity on a pty (tcsetattr: EINVAL).
+    c = ModbusSerialClient(port=tty, baudrate=19200, bytesize=8, parity="N", stopbits=1,
+                           timeout=2)
+    check("rtu connect", c.connect())
+    d = Device(c, 5, 1, fc23=False)
+    w = d.start(setup_regs(4, 1, 0, 0, 0, 0, 1e-6, 1000000, 1, 0))
+    check("rtu start", not w.isError(), str(w))
+    seen = {}
+
+    def first(done, req, wv):
+        if done == 1:
+            nb = u64(block(c, 5)[BYTES:BYTES + 4])
+            s = stats(sock)
+            seen["stats"] = (s.get("modbus_integrations") == 1 and
+                             s.get("modbus_integration_bytes") == nb > 0, s, nb)
+
+    n, inc = d.run(100000, first)
+    check("rtu: STATS counts the line's session", seen.get("stats", (False,))[0],
+          str(seen.get("stats")))
+    check("rtu request numbers increase", inc and n > 0, str(n))
+    closed_form("rtu auto d=1", block(c, 5), 0, CONVERGED)
+    s = stats(sock)
+    check("rtu: STATS once over",
+          s.get("modbus_integrations") == 0 and s.get("modbus_integration_bytes") == 0, str(s))
+    c.close()
+
+
 def hold(host, port, sock):
     c = ModbusTcpClient(host, port=port)
     c.connect()
@@ -339,6 +370,8 @@ def main():
             print_bytes(sys.argv[2], int(sys.argv[3]))
         elif what == "memory":
             memory(sys.argv[2], int(sys.argv[3]), sys.argv[4], int(sys.argv[5]))
+        elif what == "rtu":
+            rtu(sys.argv[2], sys.argv[3])
         elif what == "hold":
             hold(sys.argv[2], int(sys.argv[3]), sys.argv[4])
         else:

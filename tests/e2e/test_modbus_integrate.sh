@@ -15,6 +15,8 @@
 #      refused (status 8) and counted, a closed one makes room;
 #   3. a bank left idle is dropped after idle-timeout-ms with its session:
 #      modbus_integrations and modbus_integration_bytes fall to 0;
+#   5. a device on a serial line (one end of a socat pty pair) integrates
+#      through the RTU transport, its session counted in STATS;
 #   4. bad values of the new keys are one line and exit 2.
 # Env: QMC, QMCD, BUILD.  Prints "N passed, M failed".
 set -u
@@ -24,8 +26,8 @@ set -u
 here=$(cd "$(dirname "$0")" && pwd)
 DEVICE="$here/modbus_device.py"
 . "$(dirname "$0")/lib.sh"
-pid=
-term_vars="pid"
+pid= socat_pid=
+term_vars="pid socat_pid"
 check() { if [ "$2" -eq 0 ]; then ok; else bad "$1"; fi; }
 export QMC
 
@@ -91,5 +93,23 @@ done
 [ "$(stat modbus_sessions)" = 0 ] && [ "$(stat modbus_integrations)" = 0 ] &&
     [ "$(stat modbus_integration_bytes)" = 0 ]
 check "idle banks dropped with their sessions: $(grep 'modbus_sessions \|integration' "$tmp/stats" | tr '\n' ' ')" $?
+stop
+
+# ---- 5. a serial line ------------------------------------------------------------
+socat pty,raw,echo=0,link="$tmp/ttyq" pty,raw,echo=0,link="$tmp/ttyc" 2> "$tmp/socat.log" &
+socat_pid=$!
+i=0
+while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
+    i=$((i + 1))
+    if [ $i -gt 2000 ] || ! kill -0 $socat_pid 2>/dev/null; then
+        bad "socat pty pair not up: $(cat "$tmp/socat.log")"; finish
+    fi
+    sleep 0.01
+done
+"$QMCD" --foreground --listen "unix:$tmp/d.sock" --modbus "rtu:$tmp/ttyq:19200:N:8:1:5" \
+    --ready-file "$tmp/d.ready" 2> "$tmp/d.log" &
+pid=$!
+wait_ready pid "$tmp/d.ready" "$tmp/d.log"
+run_peer "$DEVICE" rtu "$tmp/ttyc" "$tmp/d.sock"
 stop
 finish
