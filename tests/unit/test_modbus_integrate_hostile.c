@@ -391,6 +391,65 @@ static void test_memory_room(void **state)
     qmc_modbus_session_free(s);
 }
 
+/* A batch larger than the 256 values reserved at the start grows them
+ * within the room, or fails the session: auto on a continuous f in 6 dims
+ * runs RQMC over a VEGAS map, whose pilot asks for thousands of points at
+ * once. */
+static void test_batch_growth(void **state)
+{
+    (void)state;
+    const uint16_t vegas[QMC_MODBUS_SETUP_COUNT] = {4, 6, 1, 0, 0, 0, 0, 0, 0, 0,
+                                                    0, 0, 0x000F, 0x4240, 950, 1};
+    qmc_modbus_session *s = NULL;
+    assert_int_equal(qmc_modbus_session_new(&s), 0);
+    qmc_modbus_env tight = env;
+    tight.integration_bytes_max = 1;
+    mb_reply r = mb_write(s, &tight, QMC_MODBUS_SETUP_BASE, vegas, QMC_MODBUS_SETUP_COUNT);
+    mb_assert_written(&r);
+    mb_snapshot m;
+    mb_snapshot_take(s, &env, &m);
+    assert_int_equal(m.ib[QMC_MODBUS_IB_STATUS], QMC_MODBUS_INTEG_NO_MEMORY);
+    const uint64_t start_need = mb_u64(&m.ib[QMC_MODBUS_IB_BYTES]);
+    /* Room for the start, not for its first batch: failed, with the bytes
+     * that batch needs, nothing held. */
+    uint16_t w[QMC_MODBUS_SETUP_COUNT];
+    memcpy(w, vegas, sizeof w);
+    w[15] = 2;
+    tight.integration_bytes_max = start_need;
+    r = mb_write(s, &tight, QMC_MODBUS_SETUP_BASE, w, QMC_MODBUS_SETUP_COUNT);
+    mb_assert_written(&r);
+    mb_snapshot_take(s, &env, &m);
+    assert_int_equal(m.ib[QMC_MODBUS_IB_STATUS], QMC_MODBUS_INTEG_FAILED);
+    assert_int_equal(m.ib[QMC_MODBUS_IB_ERROR], -QMC_ETOOBIG);
+    const uint64_t batch_need = mb_u64(&m.ib[QMC_MODBUS_IB_BYTES]);
+    assert_true(batch_need > start_need);
+    assert_int_equal((batch_need - start_need) % 8, 0);
+    qmc_modbus_usage u;
+    qmc_modbus_session_usage(s, &u);
+    assert_int_equal(u.integration_bytes, 0);
+    /* One byte short: the same. */
+    w[15] = 3;
+    tight.integration_bytes_max = batch_need - 1;
+    r = mb_write(s, &tight, QMC_MODBUS_SETUP_BASE, w, QMC_MODBUS_SETUP_COUNT);
+    mb_assert_written(&r);
+    mb_snapshot_take(s, &env, &m);
+    assert_int_equal(m.ib[QMC_MODBUS_IB_STATUS], QMC_MODBUS_INTEG_FAILED);
+    /* With the room: it waits on the first of the batch's points. */
+    w[15] = 4;
+    tight.integration_bytes_max = batch_need;
+    r = mb_write(s, &tight, QMC_MODBUS_SETUP_BASE, w, QMC_MODBUS_SETUP_COUNT);
+    mb_assert_written(&r);
+    mb_snapshot_take(s, &env, &m);
+    assert_int_equal(m.ib[QMC_MODBUS_IB_STATUS], QMC_MODBUS_INTEG_WAITING);
+    assert_int_equal(mb_u64(&m.ib[QMC_MODBUS_IB_BYTES]), batch_need);
+    qmc_modbus_session_usage(s, &u);
+    assert_int_equal(u.integration_bytes, batch_need);
+    print_message("  auto d=6: the start needs %llu bytes, its first batch %llu (%llu points)\n",
+                  (unsigned long long)start_need, (unsigned long long)batch_need,
+                  (unsigned long long)(256 + (batch_need - start_need) / 8));
+    qmc_modbus_session_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -398,6 +457,7 @@ int main(void)
         cmocka_unit_test(test_setup_ranges),    cmocka_unit_test(test_nonfinite_values),
         cmocka_unit_test(test_nothing_waits),   cmocka_unit_test(test_starts),
         cmocka_unit_test(test_bad_setups),      cmocka_unit_test(test_memory_room),
+        cmocka_unit_test(test_batch_growth),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
