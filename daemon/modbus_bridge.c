@@ -106,6 +106,9 @@ uint32_t qmcd_modbus_stats(const qmcd_server *srv, qmc_stat *e, uint32_t cap)
         {"modbus_sessions", &mb->ctr.sessions},
         {"modbus_refused_sessions_per_peer", &mb->ctr.sessions_refused_per_peer},
         {"modbus_refused_sessions", &mb->ctr.sessions_refused},
+        {"modbus_integrations", &mb->ctr.integrations},
+        {"modbus_integration_bytes", &mb->ctr.integration_bytes},
+        {"modbus_refused_integrations", &mb->ctr.integrations_refused},
     };
     uint32_t n = 0;
     for (size_t i = 0; i < sizeof rows / sizeof rows[0] && n < cap; i++, n++) {

@@ -20,7 +20,10 @@
  * fill modbus-max-sessions either.  Past either limit a new bank is
  * refused (exception 06) rather than evicting anyone's state: every bank
  * holds a write its client made.  A bank unused for idle-timeout-ms is
- * freed.  Loop thread only.
+ * freed, with the integration session it may hold.  Each bank's
+ * integration memory is counted here (its last qmc_modbus_usage), so that
+ * a write is told its room within modbus-integration-memory, the peer's
+ * share and the total.  Loop thread only.
  *
  * Must not: interpret registers.
  */
@@ -38,6 +41,7 @@ struct qmcd_mb_session {
     uint8_t unit;
     qmc_modbus_session *sess;
     int64_t used_ms;
+    qmc_modbus_usage usage;      /* its integration's, as last counted */
 };
 
 void qmcd__modbus_peer_key(const struct sockaddr_storage *ss, qmcd_mb_peer *key)
@@ -130,6 +134,7 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
     e->key = *key;
     e->net = *net;
     e->unit = unit;
+    memset(&e->usage, 0, sizeof e->usage);
     e->used_ms = now_ms;
     *hint = free_slot;
     *out = e->sess;
@@ -137,8 +142,43 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
     return QMCD_MB_MADE;
 }
 
+/*
+ * The room of the bank in slot: modbus-integration-memory, and what the
+ * other banks leave of modbus-integration-memory-total and of its peer's
+ * share (modbus-integration-memory-per-peer; 0: a quarter of the total).
+ * What the bank holds itself counts as room: a start closes its session
+ * first.  A pass over the banks, for writes only (at most
+ * modbus-max-sessions of them).
+ */
+uint64_t qmcd__modbus_session_room(qmcd_modbus *mb, unsigned slot)
+{
+    const qmcd_config *cfg = &mb->srv->cfg;
+    if (slot >= mb->n_sessions || !mb->sessions[slot].sess)
+        return 0;
+    const qmcd_mb_session *me = &mb->sessions[slot];
+    uint64_t peer = 0;
+    for (unsigned i = 0; i < mb->n_sessions; i++) {
+        const qmcd_mb_session *e = &mb->sessions[i];
+        if (i != slot && e->sess && qmcd__modbus_net_same(&e->net, &me->net))
+            peer += e->usage.integration_bytes;
+    }
+    uint64_t share = qmcd__modbus_share(cfg->modbus_integration_memory_per_peer,
+                                        cfg->modbus_integration_memory_total);
+    uint64_t peer_room = share > peer ? share - peer : 0;
+    return qmcd__modbus_room(mb, cfg->modbus_integration_memory,
+                             cfg->modbus_integration_memory_total,
+                             me->usage.integration_bytes, peer_room);
+}
+
+void qmcd__modbus_session_account(qmcd_modbus *mb, unsigned slot)
+{
+    if (slot < mb->n_sessions && mb->sessions[slot].sess)
+        qmcd__modbus_account(mb, &mb->sessions[slot].usage, mb->sessions[slot].sess);
+}
+
 static void drop(qmcd_modbus *mb, qmcd_mb_session *e)
 {
+    qmcd__modbus_account(mb, &e->usage, NULL);
     qmc_modbus_session_free(e->sess);
     e->sess = NULL;
     atomic_fetch_sub_explicit(&mb->ctr.sessions, 1, memory_order_relaxed);

@@ -43,6 +43,9 @@ typedef struct qmcd_mb_counters {
      * modbus-max-sessions-per-peer and for modbus-max-sessions. */
     atomic_uint_fast64_t conns_refused_per_peer, sessions;
     atomic_uint_fast64_t sessions_refused_per_peer, sessions_refused;
+    /* Integration sessions (MODBUS.md section 9): banks with one open now,
+     * the bytes they hold, and starts refused for memory. */
+    atomic_uint_fast64_t integrations, integration_bytes, integrations_refused;
 } qmcd_mb_counters;
 
 typedef struct qmcd_modbus {
@@ -72,6 +75,16 @@ void qmcd__modbus_env(qmcd_modbus *mb, qmc_modbus_env *env);
 
 /* Counts one answered request: resp is the response PDU. */
 void qmcd__modbus_count(qmcd_modbus *mb, const uint8_t *resp);
+
+/* Integration memory (modbus_counters.c).  room: what a bank holding own
+ * bytes may hold after a request, within per_bank and what the others
+ * leave of total (the TCP transport also passes its peer's room; none:
+ * UINT64_MAX).  account: counts the change from *was to the bank's usage
+ * now and stores it in *was (now NULL: the bank is going, its usage goes
+ * to zero). */
+uint64_t qmcd__modbus_room(qmcd_modbus *mb, uint64_t per_bank, uint64_t total, uint64_t own,
+                           uint64_t peer_room);
+void qmcd__modbus_account(qmcd_modbus *mb, qmc_modbus_usage *was, const qmc_modbus_session *now);
 
 /* modbus_peer.c: the peer (network) an address counts against, its name
  * for logs ("loopback", "192.0.2.7", "2001:db8::/64"), and the connections
@@ -104,6 +117,11 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
                               unsigned *hint, qmc_modbus_session **out);
 void qmcd__modbus_session_drop(qmcd_modbus *mb, unsigned slot);
 void qmcd__modbus_sessions_expire(qmcd_modbus *mb, int64_t now_ms, int64_t idle_ms);
+/* The integration memory the bank in slot may hold after a write
+ * (qmc_modbus_env.integration_bytes_max), and the accounting of what it
+ * holds after one. */
+uint64_t qmcd__modbus_session_room(qmcd_modbus *mb, unsigned slot);
+void qmcd__modbus_session_account(qmcd_modbus *mb, unsigned slot);
 void qmcd__modbus_sessions_free(qmcd_modbus *mb);
 
 /* modbus_tcp.c */

@@ -147,17 +147,27 @@ static void queue(qmcd_mb_conn *c, const uint8_t *adu, size_t n)
  * unless the request writes; a write makes its bank, within the peer's
  * share and modbus-max-sessions (else exception 06, server busy: spec
  * section 7), and a write the handler refuses stores nothing, so the bank
- * made for it goes again.  Returns the response length.
+ * made for it goes again.  A write is told the integration memory its bank
+ * may hold (modbus_sessions.c), and what the bank holds after it is
+ * counted.  Returns the response length.
  */
 static int answer(qmcd_mb_conn *c, uint8_t unit, const uint8_t *req, size_t n,
-                  const qmc_modbus_env *env, uint8_t *resp)
+                  const qmc_modbus_env *base, uint8_t *resp)
 {
     qmcd_modbus *mb = c->mb;
     int64_t now = qmcd_now_ms();
+    qmc_modbus_env env = *base; /* integration_bytes_max 0: reads start nothing */
+    const int writes = qmc_modbus_request_writes(req, n);
     qmc_modbus_session *sess = qmcd__modbus_session_find(mb, &c->key, unit, now, &c->hint);
-    if (sess || !qmc_modbus_request_writes(req, n))
-        return qmc_modbus_handle(sess ? sess : mb->defaults, env, req, n, resp,
+    if (!writes)
+        return qmc_modbus_handle(sess ? sess : mb->defaults, &env, req, n, resp,
                                  QMC_MODBUS_MAX_PDU);
+    if (sess) {
+        env.integration_bytes_max = qmcd__modbus_session_room(mb, c->hint);
+        int r = qmc_modbus_handle(sess, &env, req, n, resp, QMC_MODBUS_MAX_PDU);
+        qmcd__modbus_session_account(mb, c->hint);
+        return r;
+    }
     int made = qmcd__modbus_session_make(mb, &c->key, &c->net, unit, now, &c->hint, &sess);
     if (made != QMCD_MB_MADE) {
         if (made == QMCD_MB_PEER_FULL)
@@ -169,9 +179,12 @@ static int answer(qmcd_mb_conn *c, uint8_t unit, const uint8_t *req, size_t n,
         resp[1] = QMC_MODBUS_EX_SERVER_BUSY;
         return 2;
     }
-    int r = qmc_modbus_handle(sess, env, req, n, resp, QMC_MODBUS_MAX_PDU);
+    env.integration_bytes_max = qmcd__modbus_session_room(mb, c->hint);
+    int r = qmc_modbus_handle(sess, &env, req, n, resp, QMC_MODBUS_MAX_PDU);
     if (r <= 0 || (resp[0] & 0x80))
         qmcd__modbus_session_drop(mb, c->hint);
+    else
+        qmcd__modbus_session_account(mb, c->hint);
     return r;
 }
 
