@@ -94,6 +94,12 @@ qmcd_wait qmcd_bulk_waiting(const qmcd_conn *c, const qmcd_bulk *b)
     return QMCD_WAIT_NONE;
 }
 
+int qmcd_bulk_shutdown(qmcd_conn *c, qmcd_producer *p)
+{
+    (void)c, (void)p;
+    return 1;
+}
+
 /* The protocol is little-endian; fills write host order. */
 static void to_little_endian(uint8_t *data, size_t bytes, size_t value)
 {

@@ -69,4 +69,8 @@ int qmcd_bulk_pump(qmcd_conn *c, qmcd_bulk *b);
  * QMCD_WAIT_NONE. */
 qmcd_wait qmcd_bulk_waiting(const qmcd_conn *c, const qmcd_bulk *b);
 
+/* The kinds' shutdown: a stream has no early end a client could wait
+ * for, so at the drain deadline its connection is cut (returns 1). */
+int qmcd_bulk_shutdown(qmcd_conn *c, qmcd_producer *p);
+
 #endif

@@ -288,14 +288,6 @@ static qmcd_wait stream_waiting(const qmcd_conn *c, const qmcd_producer *p)
     return qmcd_bulk_waiting(c, &((const stream *)p)->bulk);
 }
 
-/* A stream has no early end a client could wait for: at the shutdown
- * deadline its connection is cut. */
-static int stream_shutdown(qmcd_conn *c, qmcd_producer *p)
-{
-    (void)c, (void)p;
-    return 1;
-}
-
 static void stream_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
 {
     (void)why;
@@ -309,7 +301,7 @@ static const qmcd_producer_kind stream_kind = {
     .flags = QMCD_PRODUCER_BULK,
     .pump = stream_pump,
     .waiting = stream_waiting,
-    .shutdown = stream_shutdown,
+    .shutdown = qmcd_bulk_shutdown,
     .release = stream_release,
 };
 
