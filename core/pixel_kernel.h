@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "pixel_impl.h"
+#include "sobol_wide.h"
 
 #if defined(__GNUC__)
 /* Vectors never cross an ABI boundary: every helper here is inlined. */
@@ -56,22 +57,14 @@ static inline pk_u pk_splat(uint32_t x)
 /* Dimension 1 in the reversed domain (sobol_wide.h), lane by lane. */
 static inline pk_u pk_dim1(pk_u x)
 {
-    x ^= (x >> 1) & 0x55555555u;
-    x ^= (x >> 2) & 0x33333333u;
-    x ^= (x >> 4) & 0x0f0f0f0fu;
-    x ^= (x >> 8) & 0x00ff00ffu;
-    x ^= (x >> 16) & 0x0000ffffu;
+    QMC__SOBOL_DIM1_REVERSED32_STEPS(x);
     return x;
 }
 
 /* qmc__fast_owen_reversed, lane by lane (smul = (seed >> 16) | 1). */
 static inline pk_u pk_owen(pk_u x, pk_u seed, pk_u smul)
 {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= smul;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
+    QMC__FAST_OWEN_STEPS(x, seed, smul);
     return x;
 }
 
@@ -81,14 +74,10 @@ typedef uint64_t pk_q __attribute__((vector_size(PK_VW * 4)));
 typedef uint8_t pk_q8 __attribute__((vector_size(PK_VW / 2)));
 #define PK_QW (PK_VW / 2)
 
-/* pbrt-v4's MixBits, lane by lane. */
+/* pbrt-v4's MixBits (render_hash.h), lane by lane. */
 static inline pk_q pk_mix_bits(pk_q v)
 {
-    v ^= v >> 31;
-    v *= 0x7fb5d329728ea185ull;
-    v ^= v >> 27;
-    v *= 0x81dadef4bc2dd44dull;
-    v ^= v >> 33;
+    QMC__MIX_BITS_STEPS(v);
     return v;
 }
 
@@ -130,24 +119,7 @@ static inline void pk_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, u
  * w + 1 (no cycle walking: every step stays at or below w). */
 static inline pk_u pk_perm(pk_u i, uint32_t w, pk_u p)
 {
-    i ^= p;
-    i *= 0xe170893du;
-    i ^= p >> 16;
-    i ^= (i & w) >> 4;
-    i ^= p >> 8;
-    i *= 0x0929eb3fu;
-    i ^= p >> 23;
-    i ^= (i & w) >> 1;
-    i *= 1u | p >> 27;
-    i *= 0x6935fa69u;
-    i ^= (i & w) >> 11;
-    i *= 0x74dcb303u;
-    i ^= (i & w) >> 2;
-    i *= 0x9e501cc3u;
-    i ^= (i & w) >> 2;
-    i *= 0xc860a3dfu;
-    i &= w;
-    i ^= i >> 5;
+    QMC__PERMUTATION_STEPS(i, w, p);
     return (i + p) & w;
 }
 
