@@ -30,6 +30,21 @@
 /* A POINTS_SHM_CHUNK frame: header and its fixed 24-byte payload. */
 #define SHM_CHUNK_FRAME_BYTES (QMC_PROTO_HEADER_BYTES + 24u)
 
+/* The frame bytes before a chunk's data: fixed by the protocol, so
+ * measured once (by encoding a dummy prefix) rather than per request (a
+ * render farm's many one-point POINTS would pay for it each time); 0 if
+ * the codec refuses. */
+static size_t chunk_prefix_bytes(void)
+{
+    static size_t bytes; /* written once on the loop thread, then read */
+    if (bytes == 0) {
+        uint8_t tmp[64];
+        int n = qmc_proto_encode_chunk_prefix(0, 0, 1, 8, tmp, sizeof tmp);
+        bytes = n > 0 ? (size_t)n : 0;
+    }
+    return bytes;
+}
+
 int qmcd_bulk_check_transport(qmcd_conn *c, uint64_t request_id, const char *what,
                               qmc_points_transport transport)
 {
@@ -53,18 +68,16 @@ int qmcd_bulk_init(qmcd_conn *c, qmcd_bulk *b, uint64_t request_id, const char *
     const qmcd_ring *ring = qmcd_conn_ring(c);
     if (qmcd_bulk_check_transport(c, request_id, what, transport) != 0)
         return -1;
-    /* The prefix is fixed by the protocol: measured by encoding one. */
-    uint8_t tmp[64];
-    int prefix = qmc_proto_encode_chunk_prefix(request_id, 0, 1, 8, tmp, sizeof tmp);
+    const size_t prefix = chunk_prefix_bytes();
     size_t room;
     if (shm) {
         room = ring->slot_bytes;
     } else {
-        const size_t data_max = (size_t)qmcd_conn_client_max_frame(c) -
-                                ((size_t)(prefix > 0 ? prefix : 0) - QMC_PROTO_HEADER_BYTES);
+        const size_t data_max =
+            (size_t)qmcd_conn_client_max_frame(c) - (prefix - QMC_PROTO_HEADER_BYTES);
         room = data_max < QMC_PROTO_CHUNK_BYTES ? data_max : QMC_PROTO_CHUNK_BYTES;
     }
-    if (prefix <= 0 || row_bytes == 0 || row_bytes > room) {
+    if (prefix == 0 || row_bytes == 0 || row_bytes > room) {
         if (shm)
             qmcd_conn_error(c, request_id, QMC_ETOOBIG,
                             "one %s is %zu bytes, more than a ring slot holds (%zu bytes)",
@@ -80,7 +93,7 @@ int qmcd_bulk_init(qmcd_conn *c, qmcd_bulk *b, uint64_t request_id, const char *
     b->end = first + count;
     b->row_bytes = row_bytes;
     b->value_bytes = value_bytes;
-    b->prefix_bytes = (size_t)prefix;
+    b->prefix_bytes = prefix;
     b->chunk_points = (uint32_t)(room / row_bytes);
     b->shm = shm;
     b->t0_us = t0_us;
