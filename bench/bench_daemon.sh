@@ -44,9 +44,7 @@ BULK_COUNT=4194304
 SHM_SLOTS=8             # the ring of the shm bulk run: slots x slot bytes
 SHM_SLOT_BYTES=1048576
 
-for f in "$QMCD" "$LOAD"; do
-    [ -x "$f" ] || { echo "bench_daemon: $f is missing (make $f)" >&2; exit 1; }
-done
+bench_need bench_daemon "$QMCD" "$LOAD"
 for c in redis-server redis-benchmark redis-cli; do
     command -v "$c" > /dev/null || { echo "bench_daemon: $c missing (sh build-aux/deps.sh bench)" >&2; exit 1; }
 done

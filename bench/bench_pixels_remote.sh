@@ -18,9 +18,7 @@ BUILD=${1:-build}
 QMCD=$BUILD/qmcd
 LOAD=$BUILD/bench/pixels-load
 OUT=$BUILD/bench
-for f in "$QMCD" "$LOAD"; do
-    [ -x "$f" ] || { echo "bench_pixels_remote: $f is missing (make $f)" >&2; exit 1; }
-done
+bench_need bench_pixels_remote "$QMCD" "$LOAD"
 mkdir -p "$OUT"
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/qmcd-pixels.XXXXXX")
 qpid=""

@@ -1,9 +1,20 @@
-# bench/lib.sh - what the benchmark scripts that run qmcd share (bench_daemon.sh,
-# bench_pixels_remote.sh): stopping what they started by PID, polling, and
-# starting qmcd on a ready file.  Sourced, never run:
+# bench/lib.sh - what the benchmark scripts that run qmcd share
+# (bench_daemon.sh, bench_pixels_remote.sh): checking for the programs,
+# stopping what they started by PID, polling, and starting qmcd on a
+# ready file.  Sourced, never run:
 #     . "$(dirname "$0")/lib.sh"
 # POSIX sh.  Must not: signal a process it was not given the PID of, or
 # make qmcd listen anywhere the caller did not name.
+
+# bench_need NAME FILE...: exits 1, after "NAME: FILE is missing (make
+# FILE)" on stderr, unless every FILE is an executable.
+bench_need() {
+    name=$1
+    shift
+    for f in "$@"; do
+        [ -x "$f" ] || { echo "$name: $f is missing (make $f)" >&2; exit 1; }
+    done
+}
 
 # bench_stop PID: SIGTERM, up to 3 s, then SIGKILL; only the process named
 # (an empty PID is nothing to stop).
