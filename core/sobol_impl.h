@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "bits.h"
+#include "render_hash.h"
 #include "seq_impl.h"
 
 enum { BITS = 32 };
@@ -124,18 +125,12 @@ static inline sobol_view view(const qmc_seq *seq)
  * The Laine-Karras-style hash in bit-reversed order (Vegdahl 2021).  Each
  * step changes bit k of x only by a function of bits below k - the defining
  * property of a nested uniform (Owen) scramble in reversed bit order.
- * Written once as a statement list so the scalar lk_hash and the vector
- * lk_hash8 (sobol_fill.h; vector extensions broadcast the constants) are
- * the same function by construction.
+ * Written once as a statement list (render_hash.h's, pbrt-v4's
+ * FastOwenScrambler being this hash) so the scalar lk_hash, the vector
+ * lk_hash8 (sobol_fill.h; vector extensions broadcast the constants) and
+ * the pixel samplers' scramble are the same function by construction.
  */
-#define QMC__LK_HASH_STEPS(x, seed)  \
-    do {                             \
-        (x) ^= (x) * 0x3d20adeau;    \
-        (x) += (seed);               \
-        (x) *= ((seed) >> 16) | 1u;  \
-        (x) ^= (x) * 0x05526c56u;    \
-        (x) ^= (x) * 0x53a22864u;    \
-    } while (0)
+#define QMC__LK_HASH_STEPS(x, seed) QMC__FAST_OWEN_STEPS(x, seed, ((seed) >> 16) | 1u)
 
 static inline uint32_t lk_hash(uint32_t x, uint32_t seed)
 {

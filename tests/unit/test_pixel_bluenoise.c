@@ -21,6 +21,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "pixel_test.h"
 #include "qmc/pixel.h"
 #include "qmc/quality.h"
 
@@ -30,11 +31,7 @@ static const double MAX_RATIO = 0.25;
 
 static qmc_pixels *make(qmc_pixel_sampler s, uint64_t spp, uint32_t seed, uint32_t frame)
 {
-    qmc_pixel_spec spec = {.sampler = s, .width = SIDE, .height = SIDE, .spp = spp,
-                           .seed = seed, .frame = frame, .dims = 2};
-    qmc_pixels *p = NULL;
-    assert_int_equal(qmc_pixels_new(&spec, &p), 0);
-    return p;
+    return pixel_make(s, SIDE, SIDE, spp, seed, frame, 2);
 }
 
 /* The low band of the mean radial spectrum over SEEDS seeds. */

@@ -16,6 +16,7 @@
 #include "bits.h"
 #include "qmc/quality.h"
 #include "qmc/seq.h"
+#include "seq_fill_check.h"
 #include "sobol_impl.h"
 #include "../vectors/pbrt_sobol_fast_owen.h"
 
@@ -62,47 +63,6 @@ static void test_matches_pbrt(void **state)
     }
 }
 
-/* Fills [start, start + count) in format fmt, with guard bytes after the
- * output: nothing past the end is written and every value equals at(). */
-static void assert_fill_matches_at(const qmc_seq *s, uint32_t dims, uint64_t start,
-                                   uint64_t count, qmc_format fmt)
-{
-    enum { GUARD = 64 };
-    const size_t used = (size_t)count * dims * qmc_format_bytes(fmt);
-    uint8_t *buf = malloc(used + GUARD);
-    memset(buf, 0x5a, used + GUARD);
-    assert_int_equal(qmc_seq_fill(s, start, count, fmt, buf), 0);
-    for (size_t g = 0; g < GUARD; g++)
-        if (buf[used + g] != 0x5a)
-            fail_msg("%s d=%u start=%llu count=%llu: byte %zu past the end written",
-                     qmc_format_name(fmt), dims, (unsigned long long)start,
-                     (unsigned long long)count, g);
-    for (uint64_t p = 0; p < count; p++)
-        for (uint32_t j = 0; j < dims; j++) {
-            double x = -1;
-            assert_int_equal(qmc_seq_at(s, start + p, j, &x), 0);
-            const uint32_t y = (uint32_t)(x * 0x1p32);
-            const size_t i = (size_t)p * dims + j;
-            int same;
-            if (fmt == QMC_FORMAT_F64) {
-                same = memcmp(&x, buf + 8 * i, 8) == 0;
-            } else if (fmt == QMC_FORMAT_U32) {
-                uint32_t u;
-                memcpy(&u, buf + 4 * i, 4);
-                same = u == y;
-            } else {
-                float v;
-                memcpy(&v, buf + 4 * i, 4);
-                same = v == (float)(y >> 8) * 0x1p-24f;
-            }
-            if (!same)
-                fail_msg("%s d=%u start=%llu count=%llu: point %llu dim %u differs from at()",
-                         qmc_format_name(fmt), dims, (unsigned long long)start,
-                         (unsigned long long)count, (unsigned long long)(start + p), j);
-        }
-    free(buf);
-}
-
 /* Random access == batch for every format, at widths that take each fill
  * path (packed below 32 dims, tail vectors, a second pass of 256 dims),
  * from aligned and unaligned starts, around 2^31 and at the very end. */
@@ -125,14 +85,14 @@ static void test_at_equals_fill(void **state)
                 uint64_t count = ranges[r][1];
                 if (dims[b] > 64 && count > 100)
                     count = 100;
-                assert_fill_matches_at(s, dims[b], ranges[r][0], count, fmts[f]);
+                seq_assert_fill_matches_at(s, dims[b], ranges[r][0], count, fmts[f]);
             }
         qmc_seq_free(s);
     }
     /* Index shuffling goes point by point; it must agree too. */
     qmc_seq *s = make(6, QMC_SCRAMBLE_FAST_OWEN, QMC_SEQ_SHUFFLE, 5);
     for (size_t f = 0; f < 3; f++)
-        assert_fill_matches_at(s, 6, 1000, 300, fmts[f]);
+        seq_assert_fill_matches_at(s, 6, 1000, 300, fmts[f]);
     qmc_seq_free(s);
 }
 
@@ -140,36 +100,11 @@ static void test_at_equals_fill(void **state)
 static void test_instruction_sets_agree(void **state)
 {
     (void)state;
-    const qmc_format fmts[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
     const uint32_t dims[] = {1, 3, 8, 21, 40, 300};
     int variants_run = 0;
     for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
         qmc_seq *s = make(dims[b], QMC_SCRAMBLE_FAST_OWEN, 0, 5);
-        const uint64_t start = 1000003, count = 405;
-        const size_t bytes = (size_t)count * dims[b] * 8;
-        uint8_t *want = malloc(bytes), *got = malloc(bytes);
-        for (size_t f = 0; f < 3; f++) {
-            const size_t used = (size_t)count * dims[b] * qmc_format_bytes(fmts[f]);
-            qmc__sobol_fill_generic(s, start, count, fmts[f], want);
-#ifdef QMC__SOBOL_AVX2
-            if (__builtin_cpu_supports("avx2")) {
-                memset(got, 0xa5, bytes);
-                qmc__sobol_fill_avx2(s, start, count, fmts[f], got);
-                assert_memory_equal(want, got, used);
-                variants_run++;
-            }
-            if (qmc__sobol_has_avx512()) {
-                memset(got, 0xa5, bytes);
-                qmc__sobol_fill_avx512(s, start, count, fmts[f], got);
-                assert_memory_equal(want, got, used);
-                variants_run++;
-            }
-#endif
-            assert_int_equal(qmc_seq_fill(s, start, count, fmts[f], got), 0);
-            assert_memory_equal(want, got, used);
-        }
-        free(want);
-        free(got);
+        variants_run += seq_assert_sobol_builds_agree(s, dims[b], 1000003, 405);
         qmc_seq_free(s);
     }
     print_message("instruction-set variants compared: %d\n", variants_run);
