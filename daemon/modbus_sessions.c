@@ -96,11 +96,11 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
         if (!e->sess) {
             if (free_slot == mb->n_sessions)
                 free_slot = i;
-        } else if (qmcd__modbus_net_same(&e->net, net)) {
+        } else if (qmcd_net_same(&e->net, net)) {
             held++;
         }
     }
-    if (held >= qmcd__modbus_share(cfg->modbus_max_sessions_per_peer, cfg->modbus_max_sessions))
+    if (held >= qmcd_peer_share(cfg->modbus_max_sessions_per_peer, cfg->modbus_max_sessions))
         return QMCD_MB_PEER_FULL;
     if (atomic_load_explicit(&mb->ctr.sessions, memory_order_relaxed) >=
         cfg->modbus_max_sessions)
