@@ -64,7 +64,7 @@ struct qmcd_server {
     qmcd_seqcache *seqs;
     uint64_t pixel_table_bytes; /* pixels.c: sampler tables open tiles hold (max-seq-memory) */
     qmcd_stats stats;
-    qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
+    qmcd_auth *auth;           /* the key and the failures by network (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
     /* The dispatch table by message type, and the modules whose rows it
      * holds (producer.h; filled by modules.c from modules.h). */
