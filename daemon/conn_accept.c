@@ -219,5 +219,10 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         }
         srv->stats.conns_accepted++;
         qmcd_debug("conn %llu: accepted from %s", (unsigned long long)c->id, c->peer);
+        /* Its HELLO is often here already (a client sends it with the
+         * connect): read it now, so that a burst of honest clients
+         * finishes its handshakes before the next accepts could evict
+         * them from the handshake budget. */
+        qmcd__conn_on_event(srv, &c->w, EPOLLIN);
     }
 }
