@@ -1,13 +1,13 @@
 /*
  * auth.c - key authentication in the daemon (PROTOCOL.md section 4.1):
  * loading and checking the key file, deciding which connections must
- * authenticate, running the server's half of the handshake through the
- * pure state machine of protocol/auth.c, locking out an address after
- * repeated failures: the whole handshake, HELLO (version and frame size),
- * the challenge when a key is required, and HELLO_OK.  HELLO and
- * AUTH_RESPONSE reach it through its rows of the dispatch table
+ * authenticate, and running the server's half of the handshake through
+ * the pure state machine of protocol/auth.c: HELLO (version and frame
+ * size), the challenge when a key is required, the proof, HELLO_OK.
+ * HELLO and AUTH_RESPONSE reach it through its rows of the dispatch table
  * (qmcd_auth_module), which also frees a connection's handshake state
- * when the connection goes.
+ * when the connection goes.  At HELLO_OK a TCP connection leaves the
+ * handshake budget for max-connections (admit.c), or is refused there.
  *
  * Who must authenticate: with a key loaded, every TCP connection (loopback
  * too: every local user can reach it), and Unix-socket connections when
@@ -15,22 +15,22 @@
  * control).  Without a key nobody is asked; listen.c refuses to open a
  * non-loopback TCP listener then, so only this host can connect.
  *
- * Lockout: failures are counted per address (the peer's IP address; on a
- * Unix socket its uid) in a fixed table of AUTH_PEERS entries, so a flood
- * of addresses costs no memory - the entry with the oldest failure is
- * recycled.  auth-max-failures failures within auth-lockout-ms of each
- * other lock the address out for auth-lockout-ms after the last one;
- * while locked, its HELLOs are refused before any challenge, so no guess
- * can be tested.  A success clears the address's count.
+ * Guessing (auth_guard.c, docs/SECURITY.md): wrong proofs are counted per
+ * network where they are checked, and make the network's next proofs
+ * wait before they are checked.  A proof that must wait is held by a
+ * producer (producer.h) of the HELLO's request id until its time - the
+ * same time for every proof that arrived while the network waited - and
+ * then checked like any other: the right key is served, never refused
+ * for anyone else's wrong ones.
  *
- * This file must not touch sockets beyond asking the kernel who the peer
- * is; frames go out through conn.c.
+ * This file must not touch sockets; frames go out through conn.c.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <netinet/in.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,36 +40,36 @@
 
 #include <sodium.h>
 
+#include "admit.h"
 #include "auth.h"
+#include "auth_guard.h"
 #include "conn.h"
 #include "log.h"
 #include "modules.h"
 #include "regular_file.h"
 #include "qmc/auth.h"
 
-/* Addresses whose failures are remembered at once. */
-#define AUTH_PEERS 256
-#define AUTH_ADDR_BYTES 64
-
-typedef struct peer_failures {
-    char addr[AUTH_ADDR_BYTES];   /* "" when the slot is free */
-    uint64_t failures;            /* within the current window */
-    int64_t last_fail_ms;
-    int64_t locked_until_ms;      /* 0: not locked */
-    uint64_t refused;             /* HELLOs refused during this lockout */
-} peer_failures;
-
 struct qmcd_auth {
     uint8_t key[QMC_AUTH_KEY_MAX_BYTES];
     size_t key_bytes;             /* 0: no key */
-    peer_failures peers[AUTH_PEERS];
+    qmcd_auth_guard guard;        /* failures by network (auth_guard.c) */
 };
+
+/* Where a handshake that must prove the key stands. */
+enum { PROOF_AWAITED = 0, PROOF_HELD, PROOF_OK_SENT };
 
 struct qmcd_auth_conn {
     qmc_auth_server st;
     uint64_t request_id;          /* the HELLO's */
     uint32_t client_max_frame;
-    char addr[AUTH_ADDR_BYTES];
+    int stage;                    /* PROOF_* */
+    /* A proof held back (PROOF_HELD): checked at release_ms, by the
+     * producer p, with the time it arrived (latency). */
+    qmcd_producer p;
+    qmc_msg_auth_response response;
+    int64_t release_ms;
+    int64_t t0_us;
+    qmc_msg_auth_ok ok;           /* PROOF_OK_SENT: sent; HELLO_OK follows */
 };
 
 int qmcd_auth_new(qmcd_auth **out)
@@ -181,100 +181,6 @@ static int must_authenticate(const qmcd_conn *c)
     return !c->unix_socket || srv->cfg.auth_unix;
 }
 
-/* The address failures are counted against: the peer's IP address (no
- * port: a new connection gets a new one), or on a Unix socket its uid. */
-static void peer_address(const qmcd_conn *c, char *out, size_t n)
-{
-    if (c->unix_socket) {
-        struct ucred cred;
-        socklen_t len = sizeof cred;
-        if (getsockopt(c->w.fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0)
-            snprintf(out, n, "uid %u", (unsigned)cred.uid);
-        else
-            snprintf(out, n, "unix");
-        return;
-    }
-    struct sockaddr_storage ss;
-    socklen_t len = sizeof ss;
-    char host[INET6_ADDRSTRLEN] = "?";
-    if (getpeername(c->w.fd, (struct sockaddr *)&ss, &len) == 0) {
-        if (ss.ss_family == AF_INET6)
-            inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&ss)->sin6_addr, host, sizeof host);
-        else if (ss.ss_family == AF_INET)
-            inet_ntop(AF_INET, &((struct sockaddr_in *)&ss)->sin_addr, host, sizeof host);
-    }
-    snprintf(out, n, "%s", host);
-}
-
-static peer_failures *find_peer(qmcd_auth *a, const char *addr)
-{
-    for (unsigned i = 0; i < AUTH_PEERS; i++)
-        if (a->peers[i].addr[0] && strcmp(a->peers[i].addr, addr) == 0)
-            return &a->peers[i];
-    return NULL;
-}
-
-/* A slot for addr: its own, a free one, or the one whose last failure is
- * oldest (an unlocked one first: recycling a locked address would let a
- * flood of addresses lift its lockout). */
-static peer_failures *take_peer(qmcd_auth *a, const char *addr, int64_t now)
-{
-    peer_failures *p = find_peer(a, addr), *oldest = NULL;
-    if (p)
-        return p;
-    for (unsigned i = 0; i < AUTH_PEERS && !p; i++) {
-        peer_failures *q = &a->peers[i];
-        if (!q->addr[0])
-            p = q;
-        else if (q->locked_until_ms <= now &&
-                 (!oldest || q->last_fail_ms < oldest->last_fail_ms))
-            oldest = q;
-    }
-    if (!p)
-        p = oldest ? oldest : &a->peers[0];
-    memset(p, 0, sizeof *p);
-    snprintf(p->addr, sizeof p->addr, "%s", addr);
-    return p;
-}
-
-/* Milliseconds addr stays locked out, or 0. */
-static int64_t locked_for(qmcd_auth *a, const char *addr, int64_t now)
-{
-    peer_failures *p = find_peer(a, addr);
-    if (!p || p->locked_until_ms <= now)
-        return 0;
-    return p->locked_until_ms - now;
-}
-
-static void record_failure(qmcd_conn *c, const char *addr, int64_t now)
-{
-    qmcd_server *srv = c->srv;
-    const uint64_t max = srv->cfg.auth_max_failures;
-    const int64_t window = (int64_t)srv->cfg.auth_lockout_ms;
-    peer_failures *p = take_peer(srv->auth, addr, now);
-    if (p->failures && now - p->last_fail_ms > window)
-        p->failures = 0; /* the earlier ones are too old to count */
-    p->failures++;
-    p->last_fail_ms = now;
-    srv->stats.auth_failures++;
-    qmcd_warn("conn %llu (%s): authentication failed: wrong key (failure %llu of %llu "
-              "allowed from %s)", (unsigned long long)c->id, c->peer,
-              (unsigned long long)p->failures, (unsigned long long)max, addr);
-    if (p->failures >= max) {
-        p->locked_until_ms = now + window;
-        p->refused = 0;
-        qmcd_warn("auth: %s locked out for %lld ms after %llu failed attempts", addr,
-                  (long long)window, (unsigned long long)p->failures);
-    }
-}
-
-static void record_success(qmcd_auth *a, const char *addr)
-{
-    peer_failures *p = find_peer(a, addr);
-    if (p)
-        memset(p, 0, sizeof *p);
-}
-
 /* ---- the hooks ------------------------------------------------------------------ */
 
 /* Frees c's handshake state (done, or the connection is going away). */
@@ -285,11 +191,12 @@ static void auth_conn_free(qmcd_conn *c)
 }
 
 /* Ends the handshake: HELLO_OK with version and our limits, after HELLO
- * (no authentication required) or a good AUTH_RESPONSE. */
+ * (no authentication required) or a good proof. */
 static void hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
                      uint32_t client_max_frame, int64_t t0)
 {
     c->hello_done = 1;
+    c->handshake_wait = NULL;
     c->version = version;
     c->client_max_frame = client_max_frame;
     const qmcd_config *cfg = &c->srv->cfg;
@@ -309,37 +216,29 @@ static void hello_ok(qmcd_conn *c, uint64_t request_id, uint16_t version,
         qmcd_answered(c->srv, t0);
 }
 
+/* The handshake is over: a TCP connection takes its place in
+ * max-connections (admit.c).  Returns 0, or -1 after failing c when there
+ * is none. */
+static int admitted(qmcd_conn *c, uint64_t request_id)
+{
+    char why[200];
+    if (qmcd_admit_done(c, why, sizeof why) == 0)
+        return 0;
+    qmcd_conn_fail(c, request_id, QMC_ETOOBIG, "%s", why);
+    return -1;
+}
 
 /* After HELLO's checks: 0 when this connection needs no authentication
  * (the caller answers HELLO_OK), 1 when the handshake is taken over: we
- * sent AUTH_CHALLENGE, or failed the connection (locked-out address, a
- * client that cannot speak version 3). */
+ * sent AUTH_CHALLENGE, or failed the connection (a client that cannot
+ * speak version 3).  No network is ever refused a challenge: what limits
+ * the challenges one holds is the handshake budget (admit.c), and its
+ * guesses wait at the proof (on_response). */
 static int challenge(qmcd_conn *c, const qmc_msg *m)
 {
     if (!must_authenticate(c))
         return 0;
-    qmcd_server *srv = c->srv;
     const qmc_msg_hello *h = &m->u.hello;
-    char addr[AUTH_ADDR_BYTES];
-    peer_address(c, addr, sizeof addr);
-    const int64_t now = qmcd_now_ms();
-    int64_t wait_ms = locked_for(srv->auth, addr, now);
-    if (wait_ms) {
-        srv->stats.auth_lockouts++;
-        peer_failures *p = find_peer(srv->auth, addr);
-        /* One line per lockout and then at powers of two: a client
-         * retrying in a loop must not flood the log. */
-        p->refused++;
-        if ((p->refused & (p->refused - 1)) == 0)
-            qmcd_warn("conn %llu (%s): refused: %s is locked out after failed "
-                      "authentication (%llu refused so far, %lld ms left)",
-                      (unsigned long long)c->id, c->peer, addr,
-                      (unsigned long long)p->refused, (long long)wait_ms);
-        qmcd_conn_fail(c, m->request_id, QMC_EAUTH,
-                       "too many failed authentication attempts from %s; try again in %lld s",
-                       addr, (long long)((wait_ms + 999) / 1000));
-        return 1;
-    }
     qmcd_auth_conn *ac = calloc(1, sizeof *ac);
     if (!ac) {
         qmcd_conn_fail(c, m->request_id, QMC_ENOMEM, "out of memory for the handshake");
@@ -360,8 +259,8 @@ static int challenge(qmcd_conn *c, const qmc_msg *m)
     }
     ac->request_id = m->request_id;
     ac->client_max_frame = h->max_frame;
-    memcpy(ac->addr, addr, sizeof ac->addr);
     c->auth = ac;
+    c->handshake_wait = "AUTH_RESPONSE to its AUTH_CHALLENGE (the proof of the key)";
     qmcd_debug("conn %llu: HELLO from '%.*s': challenged", (unsigned long long)c->id,
                (int)h->client.len, h->client.ptr ? h->client.ptr : "");
     (void)qmcd_conn_send(c, &r);
@@ -401,8 +300,10 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
     qmcd_debug("conn %llu: HELLO from '%.*s'", (unsigned long long)c->id,
                (int)h->client.len, h->client.ptr ? h->client.ptr : "");
     /* A listener that requires the key: we challenge, and answer HELLO_OK
-     * once the proof is good (on_response). */
+     * once the proof is good (check_proof). */
     if (challenge(c, m))
+        return;
+    if (admitted(c, m->request_id) != 0)
         return;
     hello_ok(
         c, m->request_id,
@@ -410,38 +311,144 @@ static void on_hello(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
         h->max_frame, t0);
 }
 
+/* Checks c's proof: a wrong one is counted against its network and fails
+ * c; a good one takes c's place in max-connections (else fails c) and
+ * queues AUTH_OK.  Returns 0 when AUTH_OK went out (HELLO_OK is next),
+ * -1 when c failed. */
+static int check_proof(qmcd_conn *c, const qmc_msg_auth_response *resp)
+{
+    qmcd_server *srv = c->srv;
+    qmcd_auth_conn *ac = c->auth;
+    const uint64_t id = ac->request_id;
+    int err = qmc_auth_server_verify(&ac->st, srv->auth->key, srv->auth->key_bytes, resp,
+                                     &ac->ok);
+    if (err == QMC_EAUTH) {
+        int64_t delay_ms;
+        char net[64];
+        qmcd_peer_key_name(&c->net_key, net, sizeof net);
+        uint64_t k = qmcd_auth_guard_failed(&srv->auth->guard, &c->net_key, &srv->cfg,
+                                            qmcd_now_ms(), &delay_ms);
+        srv->stats.auth_failures++;
+        if (delay_ms)
+            qmcd_warn("conn %llu (%s): authentication failed: wrong key (failure %llu from "
+                      "%s within auth-lockout-ms); proofs from %s now wait %lld ms",
+                      (unsigned long long)c->id, c->peer, (unsigned long long)k, net, net,
+                      (long long)delay_ms);
+        else
+            qmcd_warn("conn %llu (%s): authentication failed: wrong key (failure %llu from "
+                      "%s within auth-lockout-ms; its proofs wait from failure %llu on)",
+                      (unsigned long long)c->id, c->peer, (unsigned long long)k, net,
+                      (unsigned long long)srv->cfg.auth_max_failures);
+        qmcd_conn_fail(c, id, QMC_EAUTH,
+                       "authentication failed: the client's key is not the server's");
+        return -1;
+    }
+    if (err) {
+        qmcd_conn_fail(c, id, err, "authentication: %s", qmc_strerror(err));
+        return -1;
+    }
+    if (admitted(c, id) != 0)
+        return -1;
+    qmcd_debug("conn %llu (%s): authenticated", (unsigned long long)c->id, c->peer);
+    qmc_msg ok = {.type = QMC_MSG_AUTH_OK, .request_id = id};
+    ok.u.auth_ok = ac->ok;
+    if (qmcd_conn_send(c, &ok) != 0)
+        return -1;
+    ac->stage = PROOF_OK_SENT;
+    return 0;
+}
+
+/* After AUTH_OK: HELLO_OK, and the handshake state goes. */
+static void finish(qmcd_conn *c, int64_t t0_us)
+{
+    qmcd_auth_conn *ac = c->auth;
+    const uint64_t id = ac->request_id;
+    const uint16_t version = ac->st.version;
+    const uint32_t max_frame = ac->client_max_frame;
+    hello_ok(c, id, version, max_frame, t0_us);
+}
+
+/* ---- a proof held back: a producer of the HELLO's id ----------------------------- */
+
+#define AUTH_OF(prod) ((qmcd_auth_conn *)(void *)((char *)(prod) - offsetof(qmcd_auth_conn, p)))
+
+/* Waits until its time; then checks the proof (AUTH_OK, or the
+ * connection fails), then HELLO_OK: one frame a pump. */
+static int held_pump(qmcd_conn *c, qmcd_producer *p)
+{
+    qmcd_auth_conn *ac = AUTH_OF(p);
+    if (ac->stage == PROOF_HELD && qmcd_now_ms() < ac->release_ms)
+        return QMCD_PUMP_WAIT; /* the tick kicks the connection */
+    if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE / 2)
+        return QMCD_PUMP_NO_ROOM;
+    if (ac->stage == PROOF_HELD) {
+        /* A failure fails c, which releases p and frees ac. */
+        return check_proof(c, &ac->response) == 0 ? QMCD_PUMP_SENT : QMCD_PUMP_FAILED;
+    }
+    finish(c, ac->t0_us);
+    return QMCD_PUMP_DONE;
+}
+
+static qmcd_wait held_waiting(const qmcd_conn *c, const qmcd_producer *p)
+{
+    (void)c;
+    return AUTH_OF(p)->stage == PROOF_HELD ? QMCD_WAIT_WORK : QMCD_WAIT_NONE;
+}
+
+/* Done (HELLO_OK sent): the handshake state goes.  Dropped or failed:
+ * the module's conn_drop frees it with the connection. */
+static void held_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
+{
+    (void)p;
+    if (why == QMCD_END_DONE)
+        auth_conn_free(c);
+}
+
+static const qmcd_producer_kind held_kind = {
+    .name = "auth-proof",
+    .pump = held_pump,
+    .waiting = held_waiting,
+    .release = held_release,
+};
+
 static void on_response(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     (void)fd; /* only QMCD_ROUTE_FD rows get one */
     qmcd_server *srv = c->srv;
     qmcd_auth_conn *ac = c->auth;
-    if (!ac || ac->st.state != QMC_AUTH_CHALLENGED || m->request_id != ac->request_id) {
+    if (!ac || ac->stage != PROOF_AWAITED || ac->st.state != QMC_AUTH_CHALLENGED ||
+        m->request_id != ac->request_id) {
         srv->stats.malformed++;
         qmcd_conn_fail(c, m->request_id, QMC_EPROTO,
                        "AUTH_RESPONSE that answers no AUTH_CHALLENGE");
         return;
     }
-    qmc_msg ok = {.type = QMC_MSG_AUTH_OK, .request_id = ac->request_id};
-    int err = qmc_auth_server_verify(&ac->st, srv->auth->key, srv->auth->key_bytes,
-                                     &m->u.response, &ok.u.auth_ok);
-    if (err == QMC_EAUTH) {
-        record_failure(c, ac->addr, qmcd_now_ms());
-        qmcd_conn_fail(c, ac->request_id, QMC_EAUTH,
-                       "authentication failed: the client's key is not the server's");
+    const int64_t now = qmcd_now_ms();
+    const int64_t open_ms = qmcd_auth_guard_open_ms(&srv->auth->guard, &c->net_key, &srv->cfg,
+                                                    now);
+    if (open_ms > now) {
+        /* The network failed lately: this proof is checked at open_ms,
+         * with every other that arrives before then. */
+        ac->stage = PROOF_HELD;
+        ac->response = m->u.response;
+        ac->release_ms = open_ms;
+        ac->t0_us = t0_us;
+        srv->stats.auth_delays++;
+        uint64_t n = qmcd_auth_guard_held(&srv->auth->guard, &c->net_key);
+        if ((n & (n - 1)) == 0) { /* one line at 1, 2, 4, ...: no flood */
+            char net[64];
+            qmcd_peer_key_name(&c->net_key, net, sizeof net);
+            qmcd_warn("conn %llu (%s): proof held back %lld ms: %s made wrong proofs lately "
+                      "(%llu held since its last)", (unsigned long long)c->id, c->peer,
+                      (long long)(open_ms - now), net, (unsigned long long)n);
+        }
+        qmcd_producer_attach(c, &ac->p, &held_kind, ac->request_id);
         return;
     }
-    if (err) {
-        qmcd_conn_fail(c, ac->request_id, err, "authentication: %s", qmc_strerror(err));
+    if (check_proof(c, &m->u.response) != 0)
         return;
-    }
-    record_success(srv->auth, ac->addr);
-    const uint64_t id = ac->request_id;
-    const uint16_t version = ac->st.version;
-    const uint32_t max_frame = ac->client_max_frame;
+    finish(c, t0_us);
     auth_conn_free(c);
-    qmcd_debug("conn %llu (%s): authenticated", (unsigned long long)c->id, c->peer);
-    if (qmcd_conn_send(c, &ok) == 0)
-        hello_ok(c, id, version, max_frame, t0_us);
 }
 
 const qmcd_module qmcd_auth_module = {

@@ -1,7 +1,7 @@
 /*
  * auth.h - the daemon's side of key authentication (PROTOCOL.md section
  * 4.1, docs/SECURITY.md): the key file, which connections must prove they
- * hold it, the HELLO / AUTH_RESPONSE hooks, and the per-address lockout
+ * hold it, the HELLO / AUTH_RESPONSE hooks, and the per-network slowing
  * after repeated failures.
  */
 #ifndef QMCD_AUTH_H
@@ -42,7 +42,9 @@ int qmcd_auth_is_loopback(const struct sockaddr *sa);
 /* HELLO and AUTH_RESPONSE are qmcd_auth_module's rows (modules.h): HELLO
  * is answered HELLO_OK, or AUTH_CHALLENGE when this connection must prove
  * it holds the key; a good AUTH_RESPONSE gets AUTH_OK and HELLO_OK, a bad
- * one fails the connection (QMC_EAUTH or QMC_EPROTO).  While a challenge
- * awaits its answer, the connection's auth field is set. */
+ * one fails the connection (QMC_EAUTH or QMC_EPROTO) - at once, or when
+ * its network's wait is over (auth_guard.h).  With no room left in
+ * max-connections (admit.h), ERROR instead of HELLO_OK.  While a
+ * challenge awaits its answer, the connection's auth field is set. */
 
 #endif

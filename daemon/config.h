@@ -47,11 +47,15 @@
     X("modbus-integration-memory-per-peer", modbus_integration_memory_per_peer, 0, 0,     \
       1ull << 44, 1)                                                             \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
+    X("max-preauth-connections", max_preauth_connections, 64, 1, 1u << 20, 1)  \
+    X("max-preauth-connections-per-peer", max_preauth_connections_per_peer, 0, 0, 1u << 20, 1) \
+    X("max-jobs-per-peer", max_jobs_per_peer, 0, 0, 1u << 16, 1)                \
     X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
     X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \
     X("auth-unix", auth_unix, 0, 0, 1, 1)                                       \
     X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
     X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)         \
+    X("auth-delay-max-ms", auth_delay_max_ms, 2000, 0, 60000, 1)                \
     X("max-jobs-memory-total", max_jobs_memory_total, 1ull << 30, 1u << 20, 1ull << 44, 1) \
     X("job-memory-overtakes", job_memory_overtakes, 8, 0, 1u << 16, 1)
 

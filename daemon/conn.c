@@ -31,6 +31,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "admit.h"
 #include "conn.h"
 #include "conn_read.h"
 #include "log.h"
@@ -271,13 +272,9 @@ void qmcd_conn_close(qmcd_conn *c, const char *why)
         c->out_waiting = 0;
         srv->n_out_waiting--;
     }
-    if (c->refused) {
-        srv->n_refusing--;
-    } else {
-        srv->n_conns--;
-        qmcd_peers_remove(srv->peers, &c->peer_key);
+    if (c->admit != QMCD_ADMIT_REFUSED)
         srv->stats.conns_closed++;
-    }
+    qmcd_admit_release(c);
     c->next = srv->dead_conns;
     srv->dead_conns = c;
 }
@@ -519,9 +516,13 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                            (unsigned long long)cfg->write_timeout_ms);
             continue;
         }
-        if (!c->hello_done && now - c->accepted_ms >= (int64_t)cfg->handshake_timeout_ms) {
+        /* The handshake's deadline is the peer's: it does not run while a
+         * producer holds the server's answer (a proof held back, auth.c). */
+        if (!c->hello_done && c->n_producers == 0 &&
+            now - c->accepted_ms >= (int64_t)cfg->handshake_timeout_ms) {
             srv->stats.conns_timed_out++;
-            qmcd_conn_fail(c, 0, -ETIMEDOUT, "handshake-timeout-ms: no HELLO within %llu ms",
+            qmcd_conn_fail(c, 0, -ETIMEDOUT, "handshake-timeout-ms: no %s within %llu ms",
+                           c->handshake_wait ? c->handshake_wait : "HELLO",
                            (unsigned long long)cfg->handshake_timeout_ms);
             continue;
         }
@@ -597,6 +598,11 @@ int qmcd_conn_gone(const qmcd_conn *c)
 int qmcd_conn_is_unix(const qmcd_conn *c)
 {
     return c->unix_socket;
+}
+
+const qmcd_peer_key *qmcd_conn_peer(const qmcd_conn *c)
+{
+    return &c->peer_key;
 }
 
 unsigned qmcd_conn_version(const qmcd_conn *c)

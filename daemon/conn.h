@@ -24,9 +24,10 @@ typedef struct qmcd_producer qmcd_producer;
 /* After an ERROR that ends a connection, how long we keep flushing it and
  * draining the peer's input before closing regardless. */
 #define QMCD_LINGER_MS 2000
-/* Refused connections (max-connections, max-connections-per-peer) linger
- * like failed ones, so the peer reads the ERROR instead of a reset; past
- * this many lingering at once, further refusals are closed at once. */
+/* Refused connections (max-connections, max-connections-per-peer) and
+ * evicted handshakes (max-preauth-connections) linger like failed ones, so
+ * the peer reads the ERROR instead of a reset; past this many lingering at
+ * once, further refusals are closed at once. */
 #define QMCD_REFUSING_MAX 64
 
 struct qmcd_conn {
@@ -35,8 +36,15 @@ struct qmcd_conn {
     qmcd_conn *prev, *next;      /* srv->conns, or the dead list */
     uint64_t id;
     char peer[96];
-    qmcd_peer_key peer_key;      /* counted in srv->peers unless refused */
-    int refused;                 /* over a connection limit: ERROR, linger, close */
+    qmcd_peer_key peer_key;      /* its peer: an address, or a uid (peers.h) */
+    qmcd_peer_key net_key;       /* its network: the handshake budget's key */
+    int admit;                   /* where it counts (admit.h): in the handshake,
+                                    in max-connections, or refused (ERROR,
+                                    linger, close) */
+    qmcd_conn *pa_prev, *pa_next; /* srv's handshakes, oldest first (admit.c) */
+    const char *handshake_wait;  /* what the handshake waits for from the peer,
+                                    for handshake-timeout-ms's ERROR (auth.c
+                                    sets it); NULL: its HELLO */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;
     uint16_t version;            /* the protocol version HELLO_OK chose, or 0

@@ -1,9 +1,12 @@
 /*
- * conn_accept.c - accepting client connections: who the peer is, whether
- * it may come in (max-connections, max-connections-per-peer, draining),
- * and a refusal it can read - through the ordinary closing path (ERROR,
- * linger, close), or at once when QMCD_REFUSING_MAX refusals linger
- * already.  A flood of refusals is one log line a second.
+ * conn_accept.c - accepting client connections: who the peer is, where it
+ * counts (admit.c: a Unix-socket client in max-connections at once, a TCP
+ * one in the handshake budget until HELLO_OK), and a refusal it can read -
+ * through the ordinary closing path (ERROR, linger, close), or at once
+ * when QMCD_REFUSING_MAX refusals linger already.  A TCP newcomer is never
+ * refused for room: the handshake admit.c names gives its place up here,
+ * told why the same way.  A flood of refusals or evictions is one log line
+ * a second.
  *
  * This file must not serve requests: an accepted connection is conn.c's.
  */
@@ -19,6 +22,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "admit.h"
 #include "conn.h"
 #include "listen.h"
 #include "log.h"
@@ -71,9 +75,10 @@ static void reject(qmcd_server *srv, int fd, const char *why)
     srv->stats.limit_hits++;
 }
 
-/* A flood of refusals is one line a second, not one per socket. */
+/* A flood of refusals is one line a second, not one per socket.  what:
+ * "refused a connection from", "closed a handshake of". */
 static void log_refusal(qmcd_server *srv, const qmcd_listener *l, const qmcd_peer_key *key,
-                        const char *why)
+                        const char *what, const char *why)
 {
     int64_t now = qmcd_now_ms();
     if (srv->refusal_log_ms && now - srv->refusal_log_ms < 1000) {
@@ -83,12 +88,40 @@ static void log_refusal(qmcd_server *srv, const qmcd_listener *l, const qmcd_pee
     char who[64];
     qmcd_peer_key_name(key, who, sizeof who);
     if (srv->refusals_unlogged)
-        qmcd_warn("%s: refused a connection from %s: %s (and %llu more in the last second)",
-                  l->name, who, why, (unsigned long long)srv->refusals_unlogged);
+        qmcd_warn("%s: %s %s: %s (and %llu more refusals in the last second)", l->name, what,
+                  who, why, (unsigned long long)srv->refusals_unlogged);
     else
-        qmcd_warn("%s: refused a connection from %s: %s", l->name, who, why);
+        qmcd_warn("%s: %s %s: %s", l->name, what, who, why);
     srv->refusal_log_ms = now;
     srv->refusals_unlogged = 0;
+}
+
+/* A TCP connection is about to enter the handshake budget: the handshake
+ * admit.c names, if any, gives up its place first, told why (counted in
+ * STATS handshakes_evicted).  One already failing has its ERROR out: it
+ * is closed now, and not counted again. */
+static void make_room(qmcd_server *srv, const qmcd_conn *c, const qmcd_listener *l)
+{
+    char why[240];
+    qmcd_conn *v = qmcd_admit_victim(c, why, sizeof why);
+    if (!v)
+        return;
+    if (v->closing) {
+        qmcd_conn_close(v, "evicted from the handshake budget while closing");
+        return;
+    }
+    srv->stats.handshakes_evicted++;
+    log_refusal(srv, l, &v->net_key, "closed a handshake of", why);
+    qmcd_admit_refuse(v);
+    qmcd_conn_fail(v, 0, QMC_ETOOBIG, "%s", why);
+    if (srv->n_refusing > QMCD_REFUSING_MAX && !v->dead) {
+        /* Too many lingering already: the short way, its input read
+         * first so that the close does not reset the ERROR away. */
+        uint8_t junk[4096];
+        while (recv(v->w.fd, junk, sizeof junk, MSG_DONTWAIT) > 0)
+            ;
+        qmcd_conn_close(v, "evicted from the handshake budget");
+    }
 }
 
 void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -114,29 +147,13 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             reject(srv, fd, "server shutting down");
             continue;
         }
-        /* Who it is decides whether it may come in: one peer (an address,
-         * or a local user) may hold max-connections-per-peer, so that a
-         * greedy one cannot fill max-connections for everyone. */
+        /* Who it is decides where it counts: one peer (an address, or a
+         * local user) may hold max-connections-per-peer, so that a greedy
+         * one cannot fill max-connections for everyone; a TCP connection
+         * waits for HELLO_OK in the handshake budget, by network. */
         qmcd_peer_key key;
         if (qmcd_peer_key_of(fd, &key) != 0) {
             reject(srv, fd, "cannot tell who this peer is");
-            continue;
-        }
-        char why[160] = "";
-        if (srv->n_conns >= srv->cfg.max_connections) {
-            snprintf(why, sizeof why, "max-connections (%llu) reached; try later",
-                     (unsigned long long)srv->cfg.max_connections);
-        } else if (qmcd_peers_count(srv->peers, &key) >= srv->cfg.max_connections_per_peer) {
-            srv->stats.peer_conn_refusals++;
-            char who[64];
-            qmcd_peer_key_name(&key, who, sizeof who);
-            snprintf(why, sizeof why, "max-connections-per-peer (%llu) reached for %s; "
-                     "close some connections or try later",
-                     (unsigned long long)srv->cfg.max_connections_per_peer, who);
-        }
-        if (why[0] && srv->n_refusing >= QMCD_REFUSING_MAX) {
-            /* Too many refusals already lingering: the short way. */
-            reject(srv, fd, why);
             continue;
         }
         qmcd_conn *c = calloc(1, sizeof *c);
@@ -144,7 +161,27 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             reject(srv, fd, "out of memory");
             continue;
         }
-        if (!why[0] && qmcd_peers_add(srv->peers, &key) != 0) {
+        c->srv = srv;
+        c->w.fd = fd;
+        c->w.on_event = qmcd__conn_on_event;
+        c->passed_fd = -1;
+        c->peer_key = key;
+        qmcd_peer_key_net(&key, &c->net_key);
+        struct sockaddr_storage own;
+        socklen_t own_len = sizeof own;
+        c->unix_socket = getsockname(fd, (struct sockaddr *)&own, &own_len) == 0 &&
+                         own.ss_family == AF_UNIX;
+        char why[200];
+        qmcd_admit_check(c, why, sizeof why);
+        if (why[0] && srv->n_refusing >= QMCD_REFUSING_MAX) {
+            /* Too many refusals already lingering: the short way. */
+            free(c);
+            reject(srv, fd, why);
+            continue;
+        }
+        if (!why[0] && !c->unix_socket)
+            make_room(srv, c, l);
+        if (!why[0] && qmcd_admit_take(c) != 0) {
             free(c);
             reject(srv, fd, "out of memory");
             continue;
@@ -155,22 +192,11 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
          * harmless. */
         int one = 1;
         (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-        c->srv = srv;
-        c->w.fd = fd;
-        c->w.on_event = qmcd__conn_on_event;
-        c->passed_fd = -1;
-        c->peer_key = key;
-        c->refused = why[0] != 0;
-        struct sockaddr_storage own;
-        socklen_t own_len = sizeof own;
-        c->unix_socket = getsockname(fd, (struct sockaddr *)&own, &own_len) == 0 &&
-                         own.ss_family == AF_UNIX;
         c->id = ++srv->next_conn_id;
         c->accepted_ms = c->active_ms = qmcd_now_ms();
         describe_peer(fd, l, c->peer, sizeof c->peer);
         if (qmcd_loop_add(srv, &c->w, EPOLLIN) != 0) {
-            if (!c->refused)
-                qmcd_peers_remove(srv->peers, &key);
+            qmcd_admit_release(c);
             close(fd);
             free(c);
             continue;
@@ -179,20 +205,24 @@ void qmcd_conn_on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         if (srv->conns)
             srv->conns->prev = c;
         srv->conns = c;
-        if (c->refused) {
+        if (why[0]) {
             /* Refused through the ordinary closing path: the ERROR is
              * queued, the peer's HELLO read and dropped, and the socket
              * closed once the peer has it or QMCD_LINGER_MS passed.  An
              * immediate close would reset a peer still sending its HELLO
              * (which then sees "broken pipe", not our reason). */
-            srv->n_refusing++;
+            qmcd_admit_refuse(c);
             srv->stats.conns_rejected++;
-            log_refusal(srv, l, &key, why);
+            log_refusal(srv, l, &key, "refused a connection from", why);
             qmcd_conn_fail(c, 0, QMC_ETOOBIG, "%s", why);
             continue;
         }
-        srv->n_conns++;
         srv->stats.conns_accepted++;
         qmcd_debug("conn %llu: accepted from %s", (unsigned long long)c->id, c->peer);
+        /* Its HELLO is often here already (a client sends it with the
+         * connect): read it now, so that a burst of honest clients
+         * finishes its handshakes before the next accepts could evict
+         * them from the handshake budget. */
+        qmcd__conn_on_event(srv, &c->w, EPOLLIN);
     }
 }

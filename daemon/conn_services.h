@@ -19,6 +19,7 @@
 
 typedef struct qmcd_ring qmcd_ring;
 typedef struct qmcd_pool_tenant qmcd_pool_tenant;
+typedef struct qmcd_peer_key qmcd_peer_key;
 
 /* Output space kept free for small answers (PONG, ERROR, STATS_REPLY,
  * JOB_RESULT): requests are read only while this much is free, and bulk
@@ -75,6 +76,8 @@ uint64_t qmcd_conn_id(const qmcd_conn *c);
 int qmcd_conn_gone(const qmcd_conn *c);
 /* 1 on a Unix socket (descriptors may pass; the ring is possible). */
 int qmcd_conn_is_unix(const qmcd_conn *c);
+/* Its peer (peers.h): an address, or a uid - whose shares it draws on. */
+const qmcd_peer_key *qmcd_conn_peer(const qmcd_conn *c);
 /* The protocol version HELLO_OK chose (0 before it). */
 unsigned qmcd_conn_version(const qmcd_conn *c);
 /* The largest frame payload the client accepts (its HELLO). */

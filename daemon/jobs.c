@@ -41,6 +41,7 @@
 #include "log.h"
 #include "loop.h"
 #include "modules.h"
+#include "peers.h"
 #include "pool.h"
 
 enum { CANCEL_NONE = 0, CANCEL_CLIENT, CANCEL_TIMEOUT, CANCEL_SHUTDOWN, CANCEL_GONE };
@@ -50,6 +51,7 @@ typedef struct job {
     qmcd_producer p;             /* loop: one producer of its connection until
                                     answered (producer.h) */
     qmcd_conn *conn;             /* loop: NULL once the connection is gone */
+    qmcd_peer_key peer;          /* whose max-jobs-per-peer share it is in */
     uint64_t id;
     uint32_t progress_ms;
     int64_t t0_us;               /* request decoded (latency) */
@@ -237,6 +239,19 @@ static void on_integrate(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
                         (unsigned long long)srv->cfg.max_jobs_per_conn);
         return;
     }
+    /* A peer's share before the server's: the peer at fault is the one
+     * named, and one peer flooding leaves room for everyone else. */
+    const qmcd_peer_key *peer = qmcd_conn_peer(c);
+    const uint64_t share = qmcd_peer_share(srv->cfg.max_jobs_per_peer, srv->cfg.max_jobs);
+    if (qmcd_peers_count(srv->peer_jobs, peer) >= share) {
+        char who[64];
+        qmcd_peer_key_name(peer, who, sizeof who);
+        srv->stats.jobs_peer_refusals++;
+        qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
+                        "max-jobs-per-peer: %llu jobs already open for %s, on all its "
+                        "connections; try later", (unsigned long long)share, who);
+        return;
+    }
     if (srv->n_jobs >= srv->cfg.max_jobs) {
         srv->stats.jobs_refusals++;
         qmcd_conn_error(c, m->request_id, QMC_ETOOBIG,
@@ -308,9 +323,16 @@ static void on_integrate(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     atomic_init(&j->cancel, CANCEL_NONE);
     atomic_init(&j->evals, 0);
     atomic_init(&j->start_ms, 0);
+    j->peer = *peer;
+    if (qmcd_peers_add(srv->peer_jobs, &j->peer) != 0) {
+        job_free(j);
+        qmcd_conn_error(c, m->request_id, QMC_ENOMEM, "out of memory");
+        return;
+    }
     qmc_msg r = {.type = QMC_MSG_JOB_ACCEPTED, .request_id = m->request_id};
     r.u.job.job_id = j->id;
     if (qmcd_conn_send(c, &r) != 0) {
+        qmcd_peers_remove(srv->peer_jobs, &j->peer);
         job_free(j);
         return;
     }
@@ -473,6 +495,7 @@ static void on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         done = done->next;
         j->finished = 1;
         srv->n_jobs--;
+        qmcd_peers_remove(srv->peer_jobs, &j->peer);
         qmcd_debug("job %llu finished: %s in %.3f s", (unsigned long long)j->id,
                    qmc_job_state_name((qmc_job_state)atomic_load(&j->state)), j->seconds);
         if (!j->conn) {
@@ -555,12 +578,26 @@ static const qmcd_producer_kind job_kind = {
     .release = job_release,
 };
 
-/* The pool's finished jobs come back through its eventfd, on the loop. */
+/* The pool's finished jobs come back through its eventfd, on the loop;
+ * the jobs open by peer are counted from here on. */
 static int jobs_open(qmcd_server *srv)
 {
+    if (qmcd_peers_new(&srv->peer_jobs) != 0)
+        return -ENOMEM;
     srv->done.fd = qmcd_pool_eventfd(srv->pool);
     srv->done.on_event = on_done;
-    return qmcd_loop_add(srv, &srv->done, EPOLLIN);
+    int err = qmcd_loop_add(srv, &srv->done, EPOLLIN);
+    if (err) {
+        qmcd_peers_free(srv->peer_jobs);
+        srv->peer_jobs = NULL;
+    }
+    return err;
+}
+
+static void jobs_close(qmcd_server *srv)
+{
+    qmcd_peers_free(srv->peer_jobs);
+    srv->peer_jobs = NULL;
 }
 
 const qmcd_module qmcd_jobs_module = {
@@ -572,4 +609,5 @@ const qmcd_module qmcd_jobs_module = {
         {0, 0, NULL},
     },
     .open = jobs_open,
+    .close = jobs_close,
 };

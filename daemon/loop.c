@@ -88,7 +88,7 @@ static void drain_step(qmcd_server *srv, int64_t now)
     if (now >= srv->drain_deadline_ms + 1000)
         qmcd_conns_close_all(srv, "server shutting down");
     qmcd_conns_close_idle(srv);
-    if (srv->n_jobs == 0 && srv->n_conns == 0)
+    if (srv->n_jobs == 0 && srv->n_conns == 0 && srv->n_preauth == 0)
         srv->quit = 1;
     /* Every method sees a cancel within a few thousand evaluations, but a
      * job stuck inside one integrand call must still not hold the exit

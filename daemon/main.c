@@ -256,6 +256,8 @@ int main(int argc, char **argv)
     if (!err)
         err = qmcd_peers_new(&srv.peers);
     if (!err)
+        err = qmcd_peers_new(&srv.preauth_nets);
+    if (!err)
         err = qmcd_loop_init(&srv);
     /* The request modules (modules.h) after the loop: some watch a
      * descriptor. */
@@ -301,6 +303,7 @@ out:
     qmcd_modules_close(&srv);
     qmcd_pool_free(srv.pool, srv.n_jobs != 0);
     qmcd_peers_free(srv.peers);
+    qmcd_peers_free(srv.preauth_nets);
     qmcd_loop_close(&srv);
     free(srv.listeners);
     qmcd_auth_free(srv.auth);

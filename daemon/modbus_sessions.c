@@ -100,11 +100,11 @@ int qmcd__modbus_session_make(qmcd_modbus *mb, const qmcd_mb_peer *key,
         if (!e->sess) {
             if (free_slot == mb->n_sessions)
                 free_slot = i;
-        } else if (qmcd__modbus_net_same(&e->net, net)) {
+        } else if (qmcd_net_same(&e->net, net)) {
             held++;
         }
     }
-    if (held >= qmcd__modbus_share(cfg->modbus_max_sessions_per_peer, cfg->modbus_max_sessions))
+    if (held >= qmcd_peer_share(cfg->modbus_max_sessions_per_peer, cfg->modbus_max_sessions))
         return QMCD_MB_PEER_FULL;
     if (atomic_load_explicit(&mb->ctr.sessions, memory_order_relaxed) >=
         cfg->modbus_max_sessions)
@@ -159,10 +159,10 @@ uint64_t qmcd__modbus_session_room(qmcd_modbus *mb, unsigned slot)
     uint64_t peer = 0;
     for (unsigned i = 0; i < mb->n_sessions; i++) {
         const qmcd_mb_session *e = &mb->sessions[i];
-        if (i != slot && e->sess && qmcd__modbus_net_same(&e->net, &me->net))
+        if (i != slot && e->sess && qmcd_net_same(&e->net, &me->net))
             peer += e->usage.integration_bytes;
     }
-    uint64_t share = qmcd__modbus_share(cfg->modbus_integration_memory_per_peer,
+    uint64_t share = qmcd_peer_share(cfg->modbus_integration_memory_per_peer,
                                         cfg->modbus_integration_memory_total);
     uint64_t peer_room = share > peer ? share - peer : 0;
     return qmcd__modbus_room(mb, cfg->modbus_integration_memory,

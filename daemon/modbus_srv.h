@@ -26,14 +26,8 @@ typedef struct qmcd_mb_rtu qmcd_mb_rtu;
 typedef struct qmcd_mb_session qmcd_mb_session;
 
 /* A client's address: IPv4 (mapped ones included) or IPv6.  The same
- * struct holds a peer's network (modbus_peer.c): family AF_INET (the
- * address), AF_INET6 (the /64, the rest zero) or QMCD_MB_NET_LOOPBACK. */
-typedef struct qmcd_mb_peer {
-    int family;
-    uint8_t addr[16];
-} qmcd_mb_peer;
-
-#define QMCD_MB_NET_LOOPBACK 0xFF
+ * struct holds a peer's network (peers.h, qmcd_net_of). */
+typedef qmcd_ip qmcd_mb_peer;
 
 typedef struct qmcd_mb_counters {
     atomic_uint_fast64_t requests, exceptions, malformed;
@@ -86,15 +80,9 @@ uint64_t qmcd__modbus_room(qmcd_modbus *mb, uint64_t per_bank, uint64_t total, u
                            uint64_t peer_room);
 void qmcd__modbus_account(qmcd_modbus *mb, qmc_modbus_usage *was, const qmc_modbus_session *now);
 
-/* modbus_peer.c: the peer (network) an address counts against, its name
- * for logs ("loopback", "192.0.2.7", "2001:db8::/64"), and the connections
- * each peer holds (0, or -ENOMEM from add). */
-void qmcd__modbus_net_of(const qmcd_mb_peer *addr, qmcd_mb_peer *net);
-/* A peer's share of total: the setting, or with 0 (the default) a quarter
- * of total, at least 1, so that lowering the total keeps room for others. */
-uint64_t qmcd__modbus_share(uint64_t setting, uint64_t total);
-int qmcd__modbus_net_same(const qmcd_mb_peer *a, const qmcd_mb_peer *b);
-void qmcd__modbus_net_name(const qmcd_mb_peer *net, char *out, size_t n);
+/* modbus_peer.c: the connections each peer (network: peers.h's
+ * qmcd_net_of, named by qmcd_net_name, its share by qmcd_peer_share)
+ * holds (0, or -ENOMEM from add). */
 uint64_t qmcd__modbus_net_conns(const qmcd_modbus *mb, const qmcd_mb_peer *net);
 int qmcd__modbus_net_conn_add(qmcd_modbus *mb, const qmcd_mb_peer *net);
 void qmcd__modbus_net_conn_remove(qmcd_modbus *mb, const qmcd_mb_peer *net);

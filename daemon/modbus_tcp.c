@@ -358,13 +358,13 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         }
         qmcd_mb_peer key, net;
         qmcd__modbus_peer_key(&ss, &key);
-        qmcd__modbus_net_of(&key, &net);
+        qmcd_net_of(&key, &net);
         /* The peer's cap first: the peer at fault is the one named. */
-        uint64_t cap = qmcd__modbus_share(srv->cfg.modbus_max_connections_per_peer,
+        uint64_t cap = qmcd_peer_share(srv->cfg.modbus_max_connections_per_peer,
                                           srv->cfg.modbus_max_connections);
         if (!mb->draining && qmcd__modbus_net_conns(mb, &net) >= cap) {
             char why[128], name[64];
-            qmcd__modbus_net_name(&net, name, sizeof name);
+            qmcd_net_name(&net, name, sizeof name);
             snprintf(why, sizeof why, "modbus-max-connections-per-peer (%llu) reached for %s",
                      (unsigned long long)cap, name);
             atomic_fetch_add_explicit(&mb->ctr.conns_refused_per_peer, 1,

@@ -1,14 +1,18 @@
 /*
- * peers.c - connection counts by peer, so that max-connections-per-peer
- * keeps one host (or one local user) from taking every slot of
- * max-connections: a peer opening a thousand sockets is refused past its
- * own limit while everyone else still gets in.
+ * peers.c - who a client is, for its share of the server: its peer key
+ * (an address, or a uid), the network an address belongs to (the one rule
+ * for every budget an address must not be chosen around: Modbus's caps,
+ * the qmcd handshake's), a share's default, and counts by key - so that
+ * max-connections-per-peer keeps one host (or one local user) from taking
+ * every slot of max-connections: a peer opening a thousand sockets is
+ * refused past its own limit while everyone else still gets in.
  *
- * A hash table of counts, chained, with an entry only while the peer holds
- * a connection: its size follows the live connections, never the history
- * of who connected.
+ * A hash table of counts, chained, with an entry only while the key holds
+ * something: its size follows the live connections (or jobs), never the
+ * history of who connected.
  *
- * This file must not accept, refuse or close anything (conn.c does).
+ * This file must not accept, refuse or close anything (conn_accept.c,
+ * admit.c and modbus_tcp.c do).
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -90,6 +94,14 @@ void qmcd_peer_key_name(const qmcd_peer_key *key, char *out, size_t n)
         snprintf(out, n, "uid %u", uid);
         return;
     }
+    if (key->kind == QMCD_PEER_NET) {
+        qmcd_ip net;
+        memset(&net, 0, sizeof net);
+        net.family = key->addr[15];
+        memcpy(net.addr, key->addr, 8);
+        qmcd_net_name(&net, out, n);
+        return;
+    }
     static const uint8_t v4_prefix[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff};
     char host[INET6_ADDRSTRLEN] = "?";
     if (memcmp(key->addr, v4_prefix, sizeof v4_prefix) == 0)
@@ -98,6 +110,82 @@ void qmcd_peer_key_name(const qmcd_peer_key *key, char *out, size_t n)
         inet_ntop(AF_INET6, key->addr, host, sizeof host);
     snprintf(out, n, "%s", host);
 }
+
+/* ---- networks (peers.h) ------------------------------------------------------- */
+
+void qmcd_net_of(const qmcd_ip *addr, qmcd_ip *net)
+{
+    memset(net, 0, sizeof *net);
+    static const uint8_t v6_loop[16] = {[15] = 1};
+    if ((addr->family == AF_INET && addr->addr[0] == 127) ||
+        (addr->family == AF_INET6 && memcmp(addr->addr, v6_loop, 16) == 0)) {
+        net->family = QMCD_NET_LOOPBACK;
+        return;
+    }
+    net->family = addr->family;
+    if (addr->family == AF_INET6)
+        memcpy(net->addr, addr->addr, 8); /* the /64 */
+    else
+        memcpy(net->addr, addr->addr, 4);
+}
+
+int qmcd_net_same(const qmcd_ip *a, const qmcd_ip *b)
+{
+    return a->family == b->family && memcmp(a->addr, b->addr, sizeof a->addr) == 0;
+}
+
+void qmcd_net_name(const qmcd_ip *net, char *out, size_t n)
+{
+    char host[INET6_ADDRSTRLEN] = "?";
+    if (net->family == QMCD_NET_LOOPBACK) {
+        snprintf(out, n, "loopback");
+    } else if (net->family == AF_INET6) {
+        inet_ntop(AF_INET6, net->addr, host, sizeof host);
+        snprintf(out, n, "%s/64", host);
+    } else {
+        inet_ntop(AF_INET, net->addr, host, sizeof host);
+        snprintf(out, n, "%s", host);
+    }
+}
+
+/* A network's family rides in the key's last byte, which no network uses
+ * (IPv6 keeps 8 bytes, IPv4 4). */
+void qmcd_net_key(const qmcd_ip *net, qmcd_peer_key *key)
+{
+    memset(key, 0, sizeof *key);
+    key->kind = QMCD_PEER_NET;
+    memcpy(key->addr, net->addr, 8);
+    key->addr[15] = (uint8_t)net->family;
+}
+
+void qmcd_peer_key_net(const qmcd_peer_key *peer, qmcd_peer_key *net)
+{
+    static const uint8_t v4_prefix[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff};
+    if (peer->kind != QMCD_PEER_IP) {
+        *net = *peer;
+        return;
+    }
+    qmcd_ip a, n;
+    memset(&a, 0, sizeof a);
+    if (memcmp(peer->addr, v4_prefix, sizeof v4_prefix) == 0) {
+        a.family = AF_INET;
+        memcpy(a.addr, peer->addr + 12, 4);
+    } else {
+        a.family = AF_INET6;
+        memcpy(a.addr, peer->addr, 16);
+    }
+    qmcd_net_of(&a, &n);
+    qmcd_net_key(&n, net);
+}
+
+uint64_t qmcd_peer_share(uint64_t setting, uint64_t total)
+{
+    if (setting)
+        return setting;
+    return total / 4 ? total / 4 : 1;
+}
+
+/* ---- counts ------------------------------------------------------------------------ */
 
 /* FNV-1a over the key's bytes. */
 static unsigned bucket_of(const qmcd_peer_key *key)

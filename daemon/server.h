@@ -42,9 +42,16 @@ struct qmcd_server {
     unsigned n_listeners;
     qmcd_conn *conns;          /* doubly linked, newest first */
     qmcd_conn *dead_conns;     /* closed this round; freed after it */
-    uint64_t n_conns, next_conn_id, next_job_id;
+    uint64_t n_conns;          /* in max-connections (admit.c) */
+    uint64_t next_conn_id, next_job_id;
     qmcd_peers *peers;         /* connections by peer (peers.c) */
     unsigned n_refusing;       /* refused connections still lingering */
+    /* TCP connections in the handshake, oldest first, their count and
+     * their counts by network (admit.c): max-preauth-connections. */
+    qmcd_conn *preauth_head, *preauth_tail;
+    uint64_t n_preauth;
+    qmcd_peers *preauth_nets;
+    qmcd_peers *peer_jobs;     /* open jobs by peer (jobs.c): max-jobs-per-peer */
     uint64_t out_over_bytes;   /* output buffers beyond their floors (conn.c) */
     unsigned n_out_waiting;    /* connections whose streams wait for them */
     int out_wake;              /* some came free: wake the waiters */
@@ -57,7 +64,7 @@ struct qmcd_server {
     qmcd_seqcache *seqs;
     uint64_t pixel_table_bytes; /* pixels.c: sampler tables open tiles hold (max-seq-memory) */
     qmcd_stats stats;
-    qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
+    qmcd_auth *auth;           /* the key and the failures by network (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */
     /* The dispatch table by message type, and the modules whose rows it
      * holds (producer.h; filled by modules.c from modules.h). */

@@ -32,7 +32,7 @@
     X(reloads, "config_reloads")                            \
     X(jobs_dropped, "jobs_dropped")                         \
     X(auth_failures, "auth_failures")                       \
-    X(auth_lockouts, "auth_lockouts")                       \
+    X(auth_delays, "auth_delays")                           \
     X(peer_conn_refusals, "refused_connections_per_peer")   \
     X(out_waits, "out_buffer_waits")                        \
     X(jobs_conn_refusals, "refused_jobs_per_conn")          \
@@ -40,7 +40,9 @@
     X(cancel_refusals, "refused_cancels_per_conn")          \
     X(memory_refusals, "refused_job_memory")                \
     X(memory_waits, "job_memory_waits")                     \
-    X(memory_backfills, "job_memory_backfills")
+    X(memory_backfills, "job_memory_backfills")             \
+    X(handshakes_evicted, "handshakes_evicted")             \
+    X(jobs_peer_refusals, "refused_jobs_per_peer")
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
@@ -58,6 +60,7 @@ typedef struct qmcd_stats {
      * (the pool's; copied in, like memory_waits, when STATS is asked). */
     uint64_t memory_reserved;
     uint64_t memory_waiting;   /* gauge: 1 while a job waits for its memory */
+    uint64_t handshakes_open;  /* gauge: TCP connections in the handshake (admit.c) */
     uint64_t requests[32];     /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;

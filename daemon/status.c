@@ -36,6 +36,7 @@ static void on_stats(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0)
     srv->stats.memory_backfills = pc.memory_backfills;
     srv->stats.memory_reserved = pc.memory_reserved;
     srv->stats.memory_waiting = (uint64_t)pc.memory_waiting;
+    srv->stats.handshakes_open = srv->n_preauth;
     r.u.stats.count = qmcd_stats_entries(&srv->stats, srv->n_conns, srv->n_jobs, entries,
                                          QMC_PROTO_MAX_STATS);
     r.u.stats.count += qmcd_modbus_stats(srv, entries + r.u.stats.count,

@@ -49,7 +49,8 @@ typedef struct known_stat {
 
 static const known_stat known[] = {
     {"connections_accepted", 0, "Connections accepted."},
-    {"connections_rejected", 0, "Connections refused for max-connections."},
+    {"connections_rejected", 0, "Connections refused for max-connections or "
+                                "max-connections-per-peer."},
     {"connections_closed", 0, "Connections closed, for any reason."},
     {"connections_timed_out", 0, "Connections closed by a handshake, idle, frame or write "
                                  "timeout."},
@@ -70,7 +71,8 @@ static const known_stat known[] = {
     {"config_reloads", 0, "Configuration reloads applied (SIGHUP)."},
     {"jobs_dropped", 0, "Jobs whose connection closed before their answer was sent."},
     {"auth_failures", 0, "Handshakes refused for a wrong key proof."},
-    {"auth_lockouts", 0, "Handshakes refused because the address was locked out."},
+    {"auth_delays", 0, "Key proofs held back because their network made wrong proofs "
+                       "lately."},
     {"refused_connections_per_peer", 0, "Connections refused for max-connections-per-peer."},
     {"out_buffer_waits", 0, "Times a stream waited for out-buffer-total-bytes."},
     {"refused_jobs_per_conn", 0, "INTEGRATEs refused for max-jobs-per-conn."},
@@ -79,11 +81,15 @@ static const known_stat known[] = {
     {"refused_job_memory", 0, "INTEGRATEs refused: alone over max-jobs-memory-total."},
     {"job_memory_waits", 0, "Jobs that waited for max-jobs-memory-total before they ran."},
     {"job_memory_backfills", 0, "Jobs that started ahead of a job waiting for its memory."},
+    {"handshakes_evicted", 0, "TCP handshakes closed to make room under "
+                              "max-preauth-connections(-per-peer)."},
+    {"refused_jobs_per_peer", 0, "INTEGRATEs refused for max-jobs-per-peer."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
     {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
                                      "jobs now."},
     {"job_memory_waiting", 1, "1 while a job waits for its memory (others may backfill)."},
+    {"handshakes_open", 1, "TCP connections in the handshake now (max-preauth-connections)."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };

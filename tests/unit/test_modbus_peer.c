@@ -1,10 +1,7 @@
 /*
- * test_modbus_peer.c - who a Modbus TCP client is for its share of the
- * server (daemon/modbus_peer.c): all of loopback is one peer (127.0.0.0/8,
- * ::1, and 127/8 IPv4-mapped), an IPv6 peer is its /64, an IPv4 address
- * off loopback is a peer of its own; the names logs give them; the default
- * share (a quarter of the total, at least 1); and the connection counts
- * per peer, which follow the open connections.
+ * test_modbus_peer.c - the connection counts per Modbus TCP peer
+ * (daemon/modbus_peer.c), which follow the open connections; a peer is a
+ * network by peers.c's rule (tests/unit/test_peers.c tests the rule).
  *
  * The daemon's objects are not in a library, so the files are compiled in.
  */
@@ -49,55 +46,8 @@ static qmcd_mb_peer addr_of(const char *text)
 static qmcd_mb_peer net(const char *text)
 {
     qmcd_mb_peer a = addr_of(text), n;
-    qmcd__modbus_net_of(&a, &n);
+    qmcd_net_of(&a, &n);
     return n;
-}
-
-static void assert_same(const char *x, const char *y, int want)
-{
-    qmcd_mb_peer a = net(x), b = net(y);
-    if (qmcd__modbus_net_same(&a, &b) != want)
-        fail_msg("%s and %s: same peer %d, want %d", x, y, !want, want);
-}
-
-static void test_peers(void **state)
-{
-    (void)state;
-    /* Loopback, whatever the address or the family, is one peer. */
-    assert_same("127.0.0.1", "127.0.0.2", 1);
-    assert_same("127.255.3.4", "::1", 1);
-    assert_same("::ffff:127.0.0.9", "127.0.0.1", 1);
-    /* IPv6: the /64, and nothing past it. */
-    assert_same("2001:db8:0:2::1", "2001:db8:0:2:ffff:ffff:ffff:ffff", 1);
-    assert_same("2001:db8:0:2::1", "2001:db8:0:3::1", 0);
-    assert_same("2001:db8::1", "::1", 0);
-    /* IPv4 off loopback: each address; mapped or not is the same host. */
-    assert_same("192.0.2.1", "192.0.2.2", 0);
-    assert_same("192.0.2.1", "::ffff:192.0.2.1", 1);
-    assert_same("192.0.2.1", "::ffff:c000:201", 1);
-    /* The families never meet: ::c000:201 (not mapped) is IPv6. */
-    assert_same("192.0.2.1", "::c000:201", 0);
-    char name[64];
-    qmcd_mb_peer n = net("127.0.0.5");
-    qmcd__modbus_net_name(&n, name, sizeof name);
-    assert_string_equal(name, "loopback");
-    n = net("2001:db8:0:2:1:2:3:4");
-    qmcd__modbus_net_name(&n, name, sizeof name);
-    assert_string_equal(name, "2001:db8:0:2::/64");
-    n = net("::ffff:192.0.2.7");
-    qmcd__modbus_net_name(&n, name, sizeof name);
-    assert_string_equal(name, "192.0.2.7");
-}
-
-static void test_share(void **state)
-{
-    (void)state;
-    assert_int_equal(qmcd__modbus_share(0, 256), 64);
-    assert_int_equal(qmcd__modbus_share(0, 1024), 256);
-    assert_int_equal(qmcd__modbus_share(0, 50), 12);
-    assert_int_equal(qmcd__modbus_share(0, 3), 1);
-    assert_int_equal(qmcd__modbus_share(0, 1), 1);
-    assert_int_equal(qmcd__modbus_share(7, 3), 7);
 }
 
 static void test_counts(void **state)
@@ -129,8 +79,6 @@ static void test_counts(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_peers),
-        cmocka_unit_test(test_share),
         cmocka_unit_test(test_counts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -5,7 +5,14 @@
  * that go when their count reaches zero, keys that collide in the hash
  * table, what counts as the same peer (an IPv4 host on either listener
  * family, a uid whatever its pid), and the peer of real sockets (a Unix
- * socket pair, loopback TCP over IPv4 and IPv6).
+ * socket pair, loopback TCP over IPv4 and IPv6).  And the network rule
+ * every budget that must not be split by choosing addresses counts by
+ * (issue 22: Modbus's caps, the handshake budget) - all of loopback is
+ * one network (127.0.0.0/8, ::1, and 127/8 IPv4-mapped), an IPv6 network
+ * is its /64, an IPv4 address off loopback is a network of its own - the
+ * names logs give them, a connection's key taken to its network, and the
+ * default share (a quarter of the total, at least 1).  The oracle is the
+ * rule written out by hand over literal addresses.
  */
 #define _GNU_SOURCE
 #include <stdarg.h>
@@ -228,6 +235,125 @@ static void test_key_of_fails(void **state)
     close(s);
 }
 
+/* An address as Modbus makes it from an accepted socket: IPv4-mapped
+ * addresses become IPv4. */
+static qmcd_ip addr_of(const char *text)
+{
+    qmcd_ip a;
+    memset(&a, 0, sizeof a);
+    uint8_t b[16];
+    if (inet_pton(AF_INET, text, b) == 1) {
+        a.family = AF_INET;
+        memcpy(a.addr, b, 4);
+    } else {
+        assert_int_equal(inet_pton(AF_INET6, text, b), 1);
+        static const uint8_t mapped[12] = {[10] = 0xff, [11] = 0xff};
+        if (memcmp(b, mapped, 12) == 0) {
+            a.family = AF_INET;
+            memcpy(a.addr, b + 12, 4);
+        } else {
+            a.family = AF_INET6;
+            memcpy(a.addr, b, 16);
+        }
+    }
+    return a;
+}
+
+static qmcd_ip net(const char *text)
+{
+    qmcd_ip a = addr_of(text), n;
+    qmcd_net_of(&a, &n);
+    return n;
+}
+
+/* A qmcd-protocol connection's peer key, as qmcd_peer_key_of makes it. */
+static qmcd_peer_key conn_key(const char *text)
+{
+    uint8_t b[4];
+    return inet_pton(AF_INET, text, b) == 1 ? v4_key(text) : v6_key(text);
+}
+
+static void assert_same(const char *x, const char *y, int want)
+{
+    qmcd_ip a = net(x), b = net(y);
+    if (qmcd_net_same(&a, &b) != want)
+        fail_msg("%s and %s: same network %d, want %d", x, y, !want, want);
+    /* A connection's key goes to the same network by the same rule. */
+    qmcd_peer_key kx = conn_key(x), ky = conn_key(y), nx, ny;
+    qmcd_peer_key_net(&kx, &nx);
+    qmcd_peer_key_net(&ky, &ny);
+    if ((memcmp(&nx, &ny, sizeof nx) == 0) != want)
+        fail_msg("%s and %s as connection keys: same network %d, want %d", x, y, !want, want);
+}
+
+static void test_networks(void **state)
+{
+    (void)state;
+    /* Loopback, whatever the address or the family, is one network. */
+    assert_same("127.0.0.1", "127.0.0.2", 1);
+    assert_same("127.255.3.4", "::1", 1);
+    assert_same("::ffff:127.0.0.9", "127.0.0.1", 1);
+    /* IPv6: the /64, and nothing past it. */
+    assert_same("2001:db8:0:2::1", "2001:db8:0:2:ffff:ffff:ffff:ffff", 1);
+    assert_same("2001:db8:0:2::1", "2001:db8:0:3::1", 0);
+    assert_same("2001:db8::1", "::1", 0);
+    /* IPv4 off loopback: each address; mapped or not is the same host. */
+    assert_same("192.0.2.1", "192.0.2.2", 0);
+    assert_same("192.0.2.1", "::ffff:192.0.2.1", 1);
+    assert_same("192.0.2.1", "::ffff:c000:201", 1);
+    /* The families never meet: ::c000:201 (not mapped) is IPv6, and
+     * 2001:db8::/64 is not the IPv4 address of its first four bytes. */
+    assert_same("192.0.2.1", "::c000:201", 0);
+    assert_same("2001:db8::7", "32.1.13.184", 0);
+    char name[64];
+    qmcd_ip n = net("127.0.0.5");
+    qmcd_net_name(&n, name, sizeof name);
+    assert_string_equal(name, "loopback");
+    n = net("2001:db8:0:2:1:2:3:4");
+    qmcd_net_name(&n, name, sizeof name);
+    assert_string_equal(name, "2001:db8:0:2::/64");
+    n = net("::ffff:192.0.2.7");
+    qmcd_net_name(&n, name, sizeof name);
+    assert_string_equal(name, "192.0.2.7");
+}
+
+static void test_key_names(void **state)
+{
+    (void)state;
+    char name[64];
+    const char *cases[][2] = {{"127.0.0.3", "loopback"}, {"::1", "loopback"},
+                              {"2001:db8:0:2::9", "2001:db8:0:2::/64"},
+                              {"192.0.2.7", "192.0.2.7"}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        qmcd_peer_key k = conn_key(cases[i][0]), nk;
+        qmcd_peer_key_net(&k, &nk);
+        assert_int_equal(nk.kind, QMCD_PEER_NET);
+        qmcd_peer_key_name(&nk, name, sizeof name);
+        assert_string_equal(name, cases[i][1]);
+    }
+    /* A uid is a peer of its own, network or not. */
+    qmcd_peer_key u = uid_key(1000), un;
+    qmcd_peer_key_net(&u, &un);
+    assert_memory_equal(&u, &un, sizeof u);
+    qmcd_peer_key_name(&un, name, sizeof name);
+    assert_string_equal(name, "uid 1000");
+    qmcd_peer_key ip = conn_key("192.0.2.7");
+    qmcd_peer_key_name(&ip, name, sizeof name);
+    assert_string_equal(name, "192.0.2.7");
+}
+
+static void test_share(void **state)
+{
+    (void)state;
+    assert_int_equal(qmcd_peer_share(0, 256), 64);
+    assert_int_equal(qmcd_peer_share(0, 1024), 256);
+    assert_int_equal(qmcd_peer_share(0, 64), 16);
+    assert_int_equal(qmcd_peer_share(0, 50), 12);
+    assert_int_equal(qmcd_peer_share(0, 3), 1);
+    assert_int_equal(qmcd_peer_share(0, 1), 1);
+    assert_int_equal(qmcd_peer_share(7, 3), 7);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -238,6 +364,9 @@ int main(void)
         cmocka_unit_test(test_key_of_unix_socket),
         cmocka_unit_test(test_key_of_tcp),
         cmocka_unit_test(test_key_of_fails),
+        cmocka_unit_test(test_networks),
+        cmocka_unit_test(test_key_names),
+        cmocka_unit_test(test_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
