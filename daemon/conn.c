@@ -606,11 +606,6 @@ void qmcd_conn_identity(const qmcd_conn *c, qmcd_identity *out)
     memcpy(out->key_id, c->key_id, sizeof out->key_id);
 }
 
-const char *qmcd_conn_peer_name(const qmcd_conn *c)
-{
-    return c->peer;
-}
-
 unsigned qmcd_conn_version(const qmcd_conn *c)
 {
     return c->version;

@@ -90,8 +90,6 @@ typedef struct qmcd_identity {
     uint8_t key_id[QMCD_KEY_ID_BYTES];
 } qmcd_identity;
 void qmcd_conn_identity(const qmcd_conn *c, qmcd_identity *out);
-/* "uid 1000" or "127.0.0.1", for log lines and ERROR messages. */
-const char *qmcd_conn_peer_name(const qmcd_conn *c);
 /* The client's shared-memory ring (ring.h), or NULL before SHM_ATTACH. */
 qmcd_ring *qmcd_conn_ring(const qmcd_conn *c);
 /* Attaches r as its ring (shm.c; the connection frees it when it goes). */

@@ -418,6 +418,17 @@ static int point_fits(qmcd_conn *c, uint64_t request_id, uint32_t dims)
     return 0;
 }
 
+/* The one answer for an unknown id, another identity and a wrong token. */
+static void no_session(qmcd_conn *c, uint64_t request_id, uint64_t id, const qmcd_identity *who)
+{
+    char peer[96];
+    qmcd_peer_key_name(&who->peer, peer, sizeof peer);
+    qmcd_conn_error(c, request_id, -ENOENT,
+                    "no session %llu for %s with that token (never opened, ended, expired "
+                    "after session-idle-timeout-ms, or another's)", (unsigned long long)id,
+                    peer);
+}
+
 static qmcd_sess_attach *attach_new(qmcd_conn *c, qmcd_sess *s, uint64_t request_id)
 {
     qmcd_sess_attach *a = calloc(1, sizeof *a);
@@ -665,10 +676,7 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     qmcd_conn_identity(c, &who);
     qmcd_sess *s = qmcd__sessions_find(srv, ref->session_id, &who, ref->token);
     if (!s) {
-        qmcd_conn_error(c, m->request_id, -ENOENT,
-                        "no session %llu for %s with that token (never opened, ended, expired "
-                        "after session-idle-timeout-ms, or another's)",
-                        (unsigned long long)ref->session_id, qmcd_conn_peer_name(c));
+        no_session(c, m->request_id, ref->session_id, &who);
         return;
     }
     if (!point_fits(c, m->request_id, s->spec.dims))
@@ -719,10 +727,7 @@ static void on_close(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     qmcd_conn_identity(c, &who);
     qmcd_sess *s = qmcd__sessions_find(srv, ref->session_id, &who, ref->token);
     if (!s) {
-        qmcd_conn_error(c, m->request_id, -ENOENT,
-                        "no session %llu for %s with that token (never opened, ended, expired "
-                        "after session-idle-timeout-ms, or another's)",
-                        (unsigned long long)ref->session_id, qmcd_conn_peer_name(c));
+        no_session(c, m->request_id, ref->session_id, &who);
         return;
     }
     qmc_msg r;
