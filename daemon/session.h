@@ -69,6 +69,7 @@ struct qmcd_sess {
     uint64_t mem_bytes;           /* counted against the session caps */
     uint64_t pool_bytes;          /* kept against max-jobs-memory-total */
     uint64_t max_batch;           /* the most points a batch may hold */
+    uint64_t engine_batch;        /* the most a batch of whole blocks holds */
     qmc_points_transport transport; /* what the attached client asked for */
 
     /* Steps: one at a time, on the pool or the loop. */
@@ -144,8 +145,11 @@ void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant);
 int qmcd__sess_tell_now(const qmcd_sess *s);
 /* All the batch's values are in: the next step (qmc_session_tell), on the
  * loop when the last steps were cheap (from values when not NULL, else
- * s->vals), else on the pool under tenant (from s->vals). */
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values);
+ * s->vals; and assembling the next batch at next, room for next_points
+ * points, when not NULL: a free ring slot), else on the pool under tenant
+ * (from s->vals, in the session's own buffer). */
+void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                           double *next, size_t next_points);
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);

@@ -75,8 +75,10 @@ static int sess_interrupt(void *ctx)
 }
 
 /* One step, on whichever thread runs it; values: the batch's values
- * (s->vals, or where they arrived for a step run at once). */
-static void step(qmcd_sess *s, const double *values)
+ * (s->vals, or where they arrived for a step run at once); next, when not
+ * NULL, where the next batch of whole blocks is to be assembled (a ring
+ * slot: qmc_session_tell_to), room for next_points points. */
+static void step(qmcd_sess *s, const double *values, double *next, size_t next_points)
 {
     const int64_t t0 = qmcd_now_us(), c0 = cpu_us();
     s->polls = 0;
@@ -88,8 +90,14 @@ static void step(qmcd_sess *s, const double *values)
                      ? -ECANCELED
                      : qmc_session_new(&s->spec, &s->core, s->why, sizeof s->why);
     } else {
-        s->err = qmc_session_tell(s->core, s->batch.seq, values, s->batch.count, s->why,
-                                  sizeof s->why);
+        s->err = next ? qmc_session_tell_to(s->core, s->batch.seq, values, s->batch.count,
+                                            next, next_points, s->why, sizeof s->why)
+                      : QMC_EINVAL;
+        /* Without a buffer of its own to stand in for (a rule), or one too
+         * small, the refusal took nothing: the session's own buffer then. */
+        if (s->err == QMC_EINVAL)
+            s->err = qmc_session_tell(s->core, s->batch.seq, values, s->batch.count, s->why,
+                                      sizeof s->why);
     }
     s->last_step_us = cpu_us() - c0;
     s->compute_s += (double)(qmcd_now_us() - t0) / 1e6;
@@ -101,7 +109,7 @@ static void task_run(qmcd_pool_task *task)
     s->on_pool = 1;
     if (s->opening)
         s->pool_bytes = qmcd_pool_memory_keep(task); /* for the session's life */
-    step(s, s->vals);
+    step(s, s->vals, NULL, 0);
     s->on_pool = 0;
 }
 
@@ -146,13 +154,14 @@ int qmcd__sess_tell_now(const qmcd_sess *s)
     return s->last_step_us >= 0 && s->last_step_us < INLINE_STEP_US;
 }
 
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values)
+void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                           double *next, size_t next_points)
 {
     s->opening = 0;
     if (qmcd__sess_tell_now(s)) {
         s->stepping = 1;
         s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
-        step(s, values ? values : s->vals);
+        step(s, values ? values : s->vals, next, next_points);
         qmcd__sess_step_done(s, 0); /* the connection pumps after this request */
         return;
     }
