@@ -39,6 +39,7 @@
 #include "session.h"
 
 static const qmcd_producer_kind sess_kind;
+static void step_done(qmcd_sess *s, int kick);
 
 static qmcd_sess_attach *attach_of(qmcd_producer *p)
 {
@@ -415,6 +416,13 @@ static void sess_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
     qmcd__sessions_park(s);
 }
 
+/* The pool's done callback for a session's step. */
+static void task_done(qmcd_server *srv, qmcd_pool_task *task)
+{
+    (void)srv;
+    step_done((qmcd_sess *)task, 1);
+}
+
 static const qmcd_producer_kind sess_kind = {
     .name = "session",
     .flags = QMCD_PRODUCER_BULK,
@@ -424,7 +432,11 @@ static const qmcd_producer_kind sess_kind = {
     .release = sess_release,
 };
 
-void qmcd__sess_step_done(qmcd_sess *s, int kick)
+/* A step came back (loop thread): answer on the attachment (kicking its
+ * connection when kick is set: from the pool; a step run inside a
+ * request's handler is pumped after it), or leave the session parked, or
+ * free it. */
+static void step_done(qmcd_sess *s, int kick)
 {
     s->stepping = 0;
     if (s->orphan) {
@@ -559,6 +571,7 @@ static void on_open(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         return;
     }
     s->spec = spec;
+    s->task.done = task_done;
     s->max_batch = max_batch;
     s->engine_batch = engine_batch(&spec);
     s->transport = o->transport;
@@ -747,7 +760,9 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     uint32_t slot = 0;
     size_t next_points = 0;
     double *next = in_place ? next_slot(c, s, &slot, &next_points) : NULL;
-    qmcd__sess_start_tell(s, tenant, in_place, next, next_points);
+    if (!qmcd__sess_start_tell(s, tenant, in_place, next, next_points))
+        return; /* on the pool: task_done */
+    step_done(s, 0); /* the connection pumps after this request */
     if (next && s->a && !s->stepping && s->have_batch && s->batch.points == next)
         send_in_slot(c, s->a, slot);
 }

@@ -138,7 +138,8 @@ void qmcd__sessions_free(qmcd_sess *s);
 /* ---- session_step.c --------------------------------------------------------------- */
 
 /* Starts the opening step (qmc_session_new) on the pool under tenant;
- * the session's memory waits for max-jobs-memory-total there like a job's. */
+ * the session's memory waits for max-jobs-memory-total there like a job's.
+ * s->task.done (the caller's) takes the step back on the loop. */
 void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant);
 /* 1 when the next step runs at once, on the loop thread (the last one was
  * cheap): its values may then be read where they arrived. */
@@ -148,18 +149,17 @@ int qmcd__sess_tell_now(const qmcd_sess *s);
  * s->vals; and assembling the next batch at next, room for next_points
  * points, when not NULL: a free ring slot), else on the pool under tenant
  * (from s->vals, in the session's own buffer). */
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
-                           double *next, size_t next_points);
+/* Returns 1 when the step ran at once (the caller ends it), 0 when it was
+ * submitted (s->task.done ends it). */
+int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                          double *next, size_t next_points);
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 
-/* A step came back (loop thread): answer on the attachment (kicking its
- * connection when kick is set: from the pool; a step run inside a
- * request's handler is pumped after it), or leave the session parked, or
- * free it. */
-void qmcd__sess_step_done(qmcd_sess *s, int kick);
+/* (session.c's step_done takes a step back on the loop: answers on the
+ * attachment, leaves the session parked, or frees it.) */
 
 #endif

@@ -26,8 +26,9 @@
  * hook does.
  *
  * Must not: touch a connection or send anything (session.c answers when
- * the step is back), or read the configuration from a worker (what a step
- * needs is copied into the session on the loop).
+ * the step is back: the pool hands the task to its done callback, which
+ * session.c sets), call into session.c, or read the configuration from a
+ * worker (what a step needs is copied into the session on the loop).
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -119,12 +120,6 @@ static int task_must_stop(qmcd_pool_task *task)
     return atomic_load(&((qmcd_sess *)task)->cancel) != SESS_GO;
 }
 
-static void task_done(qmcd_server *srv, qmcd_pool_task *task)
-{
-    (void)srv;
-    qmcd__sess_step_done((qmcd_sess *)task, 1);
-}
-
 /* At exit, back from the pool after the registry let go of it. */
 static void task_free(qmcd_pool_task *task)
 {
@@ -135,8 +130,7 @@ static void submit(qmcd_sess *s, qmcd_pool_tenant *tenant, uint64_t mem_bytes)
 {
     s->task.run = task_run;
     s->task.must_stop = task_must_stop;
-    s->task.done = task_done;
-    s->task.free_fn = task_free;
+    s->task.free_fn = task_free; /* task.done is session.c's */
     s->task.mem_bytes = mem_bytes;
     s->stepping = 1;
     s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
@@ -154,18 +148,18 @@ int qmcd__sess_tell_now(const qmcd_sess *s)
     return s->last_step_us >= 0 && s->last_step_us < INLINE_STEP_US;
 }
 
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
-                           double *next, size_t next_points)
+int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                          double *next, size_t next_points)
 {
     s->opening = 0;
     if (qmcd__sess_tell_now(s)) {
         s->stepping = 1;
         s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
         step(s, values ? values : s->vals, next, next_points);
-        qmcd__sess_step_done(s, 0); /* the connection pumps after this request */
-        return;
+        return 1;
     }
     submit(s, tenant, 0);
+    return 0;
 }
 
 void qmcd__sess_settle(qmcd_sess *s)
