@@ -82,7 +82,7 @@ $(BUILD)/core/%.o: PRIVATE_INC := -Icore
 ifeq ($(shell uname -m),x86_64)
 $(BUILD)/core/seq_sobol_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/seq_sobol_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl \
-                                                -mavx512bw -mavx512dq
+                                                -mavx512bw -mavx512dq -mavx512vbmi -mgfni
 $(BUILD)/core/pixel_kernel_avx2.o: PRIVATE_INC := -Icore -mavx2
 $(BUILD)/core/pixel_kernel_avx512.o: PRIVATE_INC := -Icore -mavx512f -mavx512vl -mavx512bw -mavx512dq
 endif
@@ -267,6 +267,12 @@ $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(DEPFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
 
+# pixels-load fetches pixel tiles from the daemon: every layer.
+PIXELS_LOAD := $(BUILD)/bench/pixels-load
+$(PIXELS_LOAD): bench/pixels_load.c $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(DEPFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+
 # The Modbus benchmark: a load generator (raw sockets, so a dribble is one
 # byte per write) and the libmodbus peer server it is measured against.
 MODBUS_LOAD := $(BUILD)/bench/modbus-load
@@ -284,25 +290,32 @@ bench-modbus: all $(MODBUS_LOAD) $(MODBUS_PEER)
 
 # BENCH_QUICK=1 make bench: integration budgets up to 1e6 only.
 BENCH_INT_DIMS := 2 5 10 20 30
-bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
+bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(PIXELS_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_seq $(BUILD)/bench/seq.csv
 	$(MAKE) --no-print-directory bench-charts-seq
+	$(BUILD)/bench/bench_pixels $(BUILD)/bench | tee $(BUILD)/bench/pixels.txt
+	$(MAKE) --no-print-directory bench-charts-pixels
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
 	$(BUILD)/bench/bench_session_wire $(QMCD) | tee $(BUILD)/bench/session_wire.txt
 	sh bench/bench_daemon.sh $(BUILD)
+	sh bench/bench_pixels_remote.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
 
 # Every chart twice, PNG and SVG side by side (each .gp script takes png=
 # or svg=); these only draw, from the CSVs a bench run left in
 # $(BUILD)/bench, so a chart can be redrawn without rerunning the bench.
-.PHONY: bench-charts-seq bench-charts-integrate
+.PHONY: bench-charts-seq bench-charts-integrate bench-charts-pixels
 BENCH_OUT := $(BUILD)/bench
 bench-charts-seq:
 	@for k in png svg; do gnuplot -e "csv='$(BENCH_OUT)/seq.csv'; \
 	  $$k='$(BENCH_OUT)/seq-rates.$$k'" bench/seq_rates.gp || exit 1; done
 	@echo "charts: $(BENCH_OUT)/seq-rates.{png,svg}"
+bench-charts-pixels:
+	@for k in png svg; do gnuplot -e "dir='$(BENCH_OUT)'; \
+	  $$k='$(BENCH_OUT)/pixels-error.$$k'" bench/pixels_error.gp || exit 1; done
+	@echo "charts: $(BENCH_OUT)/pixels-error.{png,svg}"
 bench-charts-integrate:
 	@for k in png svg; do \
 	  for d in 2 4 8; do gnuplot -e "csv='$(BENCH_OUT)/integrate-conv.csv'; d=$$d; \

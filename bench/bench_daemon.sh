@@ -27,6 +27,7 @@
 # Env: BENCH_DAEMON_REPS (3), BENCH_DAEMON_N1 (150000 requests at -P 1),
 # BENCH_DAEMON_N16 (1500000 at -P 16), BENCH_DAEMON_CAP_S (3 s per run).
 set -u
+. "$(dirname "$0")/lib.sh"
 
 BUILD=${1:-build}
 QMCD=$BUILD/qmcd
@@ -43,9 +44,7 @@ BULK_COUNT=4194304
 SHM_SLOTS=8             # the ring of the shm bulk run: slots x slot bytes
 SHM_SLOT_BYTES=1048576
 
-for f in "$QMCD" "$LOAD"; do
-    [ -x "$f" ] || { echo "bench_daemon: $f is missing (make $f)" >&2; exit 1; }
-done
+bench_need bench_daemon "$QMCD" "$LOAD"
 for c in redis-server redis-benchmark redis-cli; do
     command -v "$c" > /dev/null || { echo "bench_daemon: $c missing (sh build-aux/deps.sh bench)" >&2; exit 1; }
 done
@@ -54,46 +53,18 @@ tmp=$(mktemp -d "${TMPDIR:-/tmp}/qmcd-bench.XXXXXX")
 qpid=""
 rpid=""
 
-# stop PID: SIGTERM, up to 3 s, then SIGKILL; only processes we started.
-stop() {
-    [ -n "$1" ] || return 0
-    kill "$1" 2> /dev/null || return 0
-    i=0
-    while kill -0 "$1" 2> /dev/null && [ $i -lt 60 ]; do sleep 0.05; i=$((i + 1)); done
-    kill -9 "$1" 2> /dev/null
-    wait "$1" 2> /dev/null
-    return 0
-}
 cleanup() {
-    stop "$qpid"
-    stop "$rpid"
+    bench_stop "$qpid"
+    bench_stop "$rpid"
     rm -rf "$tmp"
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM HUP
 
-# wait_for SECONDS CMD...: polls CMD every 50 ms until it succeeds.
-wait_for() {
-    lim=$(($1 * 20))
-    shift
-    i=0
-    while ! "$@" > /dev/null 2>&1; do
-        i=$((i + 1))
-        [ $i -ge $lim ] && return 1
-        sleep 0.05
-    done
-}
-
 # ---- qmcd ------------------------------------------------------------------
 QSOCK=$tmp/qmcd.sock
-"$QMCD" --foreground --threads 2 --listen "unix:$QSOCK" --listen tcp:127.0.0.1:0 \
-    --out-buffer-bytes "$OUT_BUFFER" --log-level notice \
-    --ready-file "$tmp/qmcd.ready" 2> "$tmp/qmcd.log" &
-qpid=$!
-if ! wait_for 10 test -e "$tmp/qmcd.ready"; then
-    echo "bench_daemon: qmcd not ready in 10 s: $(head -c 500 "$tmp/qmcd.log")" >&2
-    exit 1
-fi
+bench_start_qmcd bench_daemon "$tmp" "$QMCD" --threads 2 --listen "unix:$QSOCK" \
+    --listen tcp:127.0.0.1:0 --out-buffer-bytes "$OUT_BUFFER" --log-level notice || exit 1
 QTCP=$(grep '^tcp:' "$tmp/qmcd.ready" | head -n 1)
 QUNIX=unix:$QSOCK
 
@@ -109,12 +80,12 @@ for _ in 1 2 3 4 5 6 7 8; do
         --save '' --appendonly no --daemonize no --dir "$tmp" \
         --logfile "$tmp/redis.log" > /dev/null 2>&1 &
     rpid=$!
-    if wait_for 10 sh -c "[ \"\$(redis-cli -h 127.0.0.1 -p $p ping)\" = PONG ]" &&
+    if bench_wait_for 10 sh -c "[ \"\$(redis-cli -h 127.0.0.1 -p $p ping)\" = PONG ]" &&
         kill -0 "$rpid" 2> /dev/null; then
         rport=$p
         break
     fi
-    stop "$rpid"
+    bench_stop "$rpid"
     rpid=""
 done
 [ -n "$rport" ] || { echo "bench_daemon: redis-server did not start" >&2; exit 1; }

@@ -12,10 +12,10 @@ if (exists("svg")) {
 set datafile separator ','
 set logscale xy
 set xlabel 'dimensions'
-set ylabel 'million coordinates / s (f64, 512 KiB buffer)'
+set ylabel 'million coordinates per CPU second (f64, 512 KiB buffer)'
 set title 'Batch fill speed: qmcd vs GSL vs memset (same run)'
 set key outside right
 set xtics (2, 8, 32, 256)
-gens = 'memset sobol sobol-owen sobol-shift halton gsl-sobol gsl-halton'
+gens = 'memset sobol sobol-owen fast-owen sobol-shift halton gsl-sobol gsl-halton'
 plot for [g in gens] sprintf("< awk -F, '$1 == \"l2\" && $3 == \"%s\"' %s", g, csv) \
      using 2:($4 / 1e6) with linespoints lw 2 title g

@@ -14,11 +14,19 @@ set -eu
 #          oracles), the real peers the end-to-end tests drive (mbpoll,
 #          pymodbus and serial_asyncio, which pymodbus 3.0 imports at start,
 #          socat, haproxy), valgrind, systemd's tools (socket activation,
-#          systemd-analyze), man-db (man -l) and gnuplot (stability charts).
+#          systemd-analyze), man-db (man -l) and gnuplot (stability charts),
+#          and a one-node Slurm cluster (tests/e2e/test_slurm.sh): munge,
+#          slurmctld, slurmd, slurm-client (sbatch, squeue, scontrol, scancel)
+#          and slurm-wlm-basic-plugins (the plugins its slurm.conf names).
+#          Their Recommends are left out on purpose: slurm-wlm-plugins is a
+#          metapackage of optional plugins (elasticsearch, hdf5, ipmi, ...)
+#          and libhwloc-plugins adds hwloc's PCI and GPU discovery; the test
+#          runs without either.
 pkgs_build="gcc libc6-dev make pkg-config libsystemd-dev libmodbus-dev libsodium-dev"
 pkgs_test="libcmocka-dev clang libclang-rt-14-dev python3 python3-scipy \
 python3-pymodbus python3-serial-asyncio mbpoll socat haproxy valgrind systemd \
-man-db groff-base gnuplot-nox procps"
+man-db groff-base gnuplot-nox procps \
+munge slurmctld slurmd slurm-client slurm-wlm-basic-plugins"
 pkgs_bench="libgsl-dev libcubature-dev gnuplot-nox redis-server redis-tools"
 pkgs_demo="gnuplot-nox"
 
@@ -45,7 +53,7 @@ echo "deps.sh: installing Debian packages:$missing" >&2
 if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
 # apt-get update only when the package lists are missing or a day old, so a
 # rerun on a provisioned machine does not touch the network.
-if [ -z "$(find /var/lib/apt/lists -maxdepth 1 -name '*_Packages' -mtime -1 2>/dev/null | head -n 1)" ]; then
+if [ -z "$(find /var/lib/apt/lists -maxdepth 1 -name '*_Packages*' -mtime -1 2>/dev/null | head -n 1)" ]; then
     $sudo apt-get update -q
 fi
 # shellcheck disable=SC2086

@@ -186,11 +186,34 @@ static inline void qmc__pixel_store(void *out, size_t k, uint32_t v, qmc_format 
     }
 }
 
-/* Element offset of (tile pixel index, sample offset, value d) in a fill. */
-static inline size_t qmc__pixel_offset(const qmc_pixel_tile *t, uint64_t pixel,
-                                       uint64_t sample_off, uint32_t dims)
+/* ---- the fast fills' blocks (pixel_zsobol.c, pixel_padded.c, pixel_sobol.c) */
+
+/*
+ * Sample rows per block for a pass of nc of the dims columns, at most the
+ * tile's samples: the staging holds a row's nc words, or (nc + 1) / 2
+ * when paired columns share a word, and the scratch (nc values a row)
+ * serves only passes narrower than a row.
+ */
+static inline uint32_t qmc__pixel_block_rows(const qmc_pixel_tile *t, uint32_t nc, uint32_t dims,
+                                             int paired)
 {
-    return (size_t)((pixel * t->sample_count + sample_off) * dims);
+    const uint32_t staged = paired ? (nc + 1) / 2 : nc;
+    const uint32_t rows = QMC__PIXEL_STAGE_WORDS / (nc == dims ? staged : nc);
+    return rows > t->sample_count ? (uint32_t)t->sample_count : rows;
+}
+
+/* The rows of the block at sample offset a: rows, or what is left. */
+static inline uint32_t qmc__pixel_block_n(const qmc_pixel_tile *t, uint64_t a, uint32_t rows)
+{
+    return t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
+}
+
+/* Where value d0 of sample offset a of tile pixel `pixel` (row-major
+ * index in the tile) goes in a fill's out, of elements esize bytes. */
+static inline void *qmc__pixel_out(void *out, const qmc_pixel_tile *t, uint64_t pixel,
+                                   uint64_t a, uint32_t dims, uint32_t d0, size_t esize)
+{
+    return (char *)out + ((size_t)((pixel * t->sample_count + a) * dims) + d0) * esize;
 }
 
 /* The generic fill: at() for every value (the reference, and small tiles). */

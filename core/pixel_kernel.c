@@ -7,19 +7,7 @@
  * Must not: allocate, or keep state (the CPU flags are libgcc's).
  */
 #define PK_VW 4
-#define PK_LANES ((pk_u){0, 1, 2, 3})
 #include "pixel_kernel.h"
-
-static inline pk_u pk_reverse(pk_u x)
-{
-    pk_b b = (pk_b)x;
-    b = __builtin_shufflevector(b, b, 3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
-    x = (pk_u)b;
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    return x;
-}
 
 /* ---- passes and their lane patterns (the same for every build) ---------- */
 
@@ -82,31 +70,8 @@ void qmc__pixel_pattern_set(qmc__pixel_pattern *pt, const uint32_t *xorc, const 
 
 /* ---- dispatch ---------------------------------------------------------------- */
 
-static inline pk_u pk_permute(pk_u x, pk_u idx)
-{
-#if defined(__clang__)
-    /* clang has no variable-index vector shuffle builtin. */
-    pk_u r;
-    for (int l = 0; l < PK_VW; l++)
-        r[l] = x[idx[l] & (PK_VW - 1)];
-    return r;
-#else
-    return __builtin_shuffle(x, idx);
-#endif
-}
-
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PIXEL_KERNEL_X86 1
-void qmc__pixel_emit_avx2(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
-                          uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
-                          void *scratch);
-void qmc__pixel_emit_avx512(const qmc__pixel_pattern *pt, const uint32_t *in,
-                            uint64_t row_start, uint32_t w, uint32_t rows, qmc_format fmt,
-                            void *out, size_t stride, void *scratch);
-
-void qmc__pixel_nodes_avx2(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
-void qmc__pixel_nodes_avx512(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
-
 #endif
 
 /* AVX-512 needs F, VL, BW and DQ, as seq_sobol.c asks. */

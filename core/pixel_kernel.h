@@ -2,7 +2,11 @@
  * pixel_kernel.h - the pixel samplers' vector kernels, as static inline
  * functions over PK_VW 32-bit lanes (private; included only by
  * pixel_kernel.c, pixel_kernel_avx2.c and pixel_kernel_avx512.c, which
- * compile them for different instruction sets and name them with PK_NAME).
+ * compile them for different instruction sets: PK_VW 4 for the baseline,
+ * 8 with AVX2, 16 with AVX-512).  The two shuffles that differ by
+ * instruction set are chosen here by PK_VW, as sobol_fill.h chooses its
+ * own; a build that defines PK_EMIT_NAME and PK_NODES_NAME gets its entry
+ * points under those names (the end of this file).
  *
  * Written with the GCC/clang vector extensions, integer operations only
  * (plus the exact u32 -> f32 conversion of a 24-bit integer), so every
@@ -19,6 +23,7 @@
 #include <string.h>
 
 #include "pixel_impl.h"
+#include "sobol_wide.h"
 
 #if defined(__GNUC__)
 /* Vectors never cross an ABI boundary: every helper here is inlined. */
@@ -30,11 +35,91 @@ typedef int32_t pk_i __attribute__((vector_size(PK_VW * 4)));
 typedef float pk_f __attribute__((vector_size(PK_VW * 4)));
 typedef uint8_t pk_b __attribute__((vector_size(PK_VW * 4)));
 
-/* Bit reversal of each lane, and lane l of the result = lane idx[l] of x
- * (idx < PK_VW): defined by the including file, with the best shuffles
- * its instruction set has. */
-static inline pk_u pk_reverse(pk_u x);
-static inline pk_u pk_permute(pk_u x, pk_u idx);
+/* ---- the instruction set's shuffles --------------------------------------- */
+
+/* pk_reverse: the bit reversal of each lane.  pk_permute: lane l of the
+ * result is lane idx[l] of x (idx < PK_VW).  Each with the best shuffles
+ * the build's instruction set has. */
+#if PK_VW == 8 || PK_VW == 16
+#include <immintrin.h>
+
+/* The byte shuffle that reverses each word's bytes, and rev_hi: byte n of
+ * every 16 is the 4 bits of n reversed, in the high nibble (vpshufb looks
+ * up within 16-byte lanes).  Built as each width builds such constants
+ * best. */
+#if PK_VW == 16
+typedef __m512i pk_m;
+#define PK_MM(op) _mm512_##op
+#define PK_SI(op) _mm512_##op##_si512
+#define PK_BSWAP                                                                        \
+    _mm512_set_epi64(0x0c0d0e0f08090a0bll, 0x0405060700010203ll, 0x0c0d0e0f08090a0bll, \
+                     0x0405060700010203ll, 0x0c0d0e0f08090a0bll, 0x0405060700010203ll, \
+                     0x0c0d0e0f08090a0bll, 0x0405060700010203ll)
+#define PK_REV_HI \
+    _mm512_set4_epi32((int)0xf070b030, (int)0xd0509010, (int)0xe060a020, (int)0xc0408000)
+#else
+typedef __m256i pk_m;
+#define PK_MM(op) _mm256_##op
+#define PK_SI(op) _mm256_##op##_si256
+#define PK_BSWAP                                                                       \
+    _mm256_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12, 3, 2, 1, 0, 7, \
+                     6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12)
+#define PK_REV_HI                                                                          \
+    _mm256_setr_epi8(0x00, (char)0x80, 0x40, (char)0xc0, 0x20, (char)0xa0, 0x60, (char)0xe0, \
+                     0x10, (char)0x90, 0x50, (char)0xd0, 0x30, (char)0xb0, 0x70, (char)0xf0, \
+                     0x00, (char)0x80, 0x40, (char)0xc0, 0x20, (char)0xa0, 0x60, (char)0xe0, \
+                     0x10, (char)0x90, 0x50, (char)0xd0, 0x30, (char)0xb0, 0x70, (char)0xf0)
+#endif
+
+/* Bytes reversed by one shuffle, then each byte's bits by looking up both
+ * nibbles in a 16-entry table (two vpshufb). */
+static inline pk_u pk_reverse(pk_u x)
+{
+    const pk_m rev_hi = PK_REV_HI;
+    const pk_m rev_lo = PK_MM(srli_epi16)(rev_hi, 4);
+    const pk_m nib = PK_MM(set1_epi8)(0x0f);
+    const pk_m v = PK_MM(shuffle_epi8)((pk_m)x, PK_BSWAP);
+    const pk_m low = PK_SI(and)(v, nib);
+    const pk_m high = PK_SI(and)(PK_MM(srli_epi16)(v, 4), nib);
+    return (pk_u)PK_SI(or)(PK_MM(shuffle_epi8)(rev_hi, low),
+                           PK_MM(shuffle_epi8)(rev_lo, high));
+}
+
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+#if PK_VW == 16
+    return (pk_u)_mm512_permutexvar_epi32((__m512i)idx, (__m512i)x);
+#else
+    return (pk_u)_mm256_permutevar8x32_epi32((__m256i)x, (__m256i)idx);
+#endif
+}
+#else /* the baseline: 4 lanes, generic shuffles */
+static inline pk_u pk_reverse(pk_u x)
+{
+    pk_b b = (pk_b)x;
+    b = __builtin_shufflevector(b, b, 3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
+    x = (pk_u)b;
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    return x;
+}
+
+static inline pk_u pk_permute(pk_u x, pk_u idx)
+{
+#if defined(__clang__)
+    /* clang has no variable-index vector shuffle builtin. */
+    pk_u r;
+    for (int l = 0; l < PK_VW; l++)
+        r[l] = x[idx[l] & (PK_VW - 1)];
+    return r;
+#else
+    return __builtin_shuffle(x, idx);
+#endif
+}
+#endif
+
+/* ---- lanes -------------------------------------------------------------------- */
 
 static inline pk_u pk_load(const uint32_t *p)
 {
@@ -56,22 +141,14 @@ static inline pk_u pk_splat(uint32_t x)
 /* Dimension 1 in the reversed domain (sobol_wide.h), lane by lane. */
 static inline pk_u pk_dim1(pk_u x)
 {
-    x ^= (x >> 1) & 0x55555555u;
-    x ^= (x >> 2) & 0x33333333u;
-    x ^= (x >> 4) & 0x0f0f0f0fu;
-    x ^= (x >> 8) & 0x00ff00ffu;
-    x ^= (x >> 16) & 0x0000ffffu;
+    QMC__SOBOL_DIM1_REVERSED32_STEPS(x);
     return x;
 }
 
 /* qmc__fast_owen_reversed, lane by lane (smul = (seed >> 16) | 1). */
 static inline pk_u pk_owen(pk_u x, pk_u seed, pk_u smul)
 {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= smul;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
+    QMC__FAST_OWEN_STEPS(x, seed, smul);
     return x;
 }
 
@@ -81,14 +158,10 @@ typedef uint64_t pk_q __attribute__((vector_size(PK_VW * 4)));
 typedef uint8_t pk_q8 __attribute__((vector_size(PK_VW / 2)));
 #define PK_QW (PK_VW / 2)
 
-/* pbrt-v4's MixBits, lane by lane. */
+/* pbrt-v4's MixBits (render_hash.h), lane by lane. */
 static inline pk_q pk_mix_bits(pk_q v)
 {
-    v ^= v >> 31;
-    v *= 0x7fb5d329728ea185ull;
-    v ^= v >> 27;
-    v *= 0x81dadef4bc2dd44dull;
-    v ^= v >> 33;
+    QMC__MIX_BITS_STEPS(v);
     return v;
 }
 
@@ -130,24 +203,7 @@ static inline void pk_nodes(uint64_t key0, uint64_t salt, uint32_t n, int bit, u
  * w + 1 (no cycle walking: every step stays at or below w). */
 static inline pk_u pk_perm(pk_u i, uint32_t w, pk_u p)
 {
-    i ^= p;
-    i *= 0xe170893du;
-    i ^= p >> 16;
-    i ^= (i & w) >> 4;
-    i ^= p >> 8;
-    i *= 0x0929eb3fu;
-    i ^= p >> 23;
-    i ^= (i & w) >> 1;
-    i *= 1u | p >> 27;
-    i *= 0x6935fa69u;
-    i ^= (i & w) >> 11;
-    i *= 0x74dcb303u;
-    i ^= (i & w) >> 2;
-    i *= 0x9e501cc3u;
-    i ^= (i & w) >> 2;
-    i *= 0xc860a3dfu;
-    i &= w;
-    i ^= i >> 5;
+    QMC__PERMUTATION_STEPS(i, w, p);
     return (i + p) & w;
 }
 
@@ -306,3 +362,30 @@ static inline void pk_emit(const qmc__pixel_pattern *pt, const uint32_t *in, uin
     for (uint32_t r = 0; r < rows; r++)
         memcpy((char *)out + r * stride * es, (char *)scratch + (size_t)r * nc * es, nc * es);
 }
+
+/* ---- an instruction set's entry points (pixel_kernel.c dispatches) -------- */
+
+#if defined(__x86_64__) && defined(__GNUC__)
+void qmc__pixel_emit_avx2(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
+                          uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
+                          void *scratch);
+void qmc__pixel_emit_avx512(const qmc__pixel_pattern *pt, const uint32_t *in,
+                            uint64_t row_start, uint32_t w, uint32_t rows, qmc_format fmt,
+                            void *out, size_t stride, void *scratch);
+void qmc__pixel_nodes_avx2(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
+void qmc__pixel_nodes_avx512(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out);
+#endif
+
+#if defined(PK_EMIT_NAME) && defined(PK_NODES_NAME)
+void PK_EMIT_NAME(const qmc__pixel_pattern *pt, const uint32_t *in, uint64_t row_start,
+                  uint32_t w, uint32_t rows, qmc_format fmt, void *out, size_t stride,
+                  void *scratch)
+{
+    pk_emit(pt, in, row_start, w, rows, fmt, out, stride, scratch);
+}
+
+void PK_NODES_NAME(uint64_t key0, uint64_t salt, uint32_t n, int bit, uint8_t *out)
+{
+    pk_nodes(key0, salt, n, bit, out);
+}
+#endif

@@ -201,9 +201,7 @@ static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format 
     memset(in, 0, sizeof in); /* the pad lanes the kernel reads past a block */
     for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
         nc = qmc__pixel_pass_cols(dims, d0);
-        uint32_t rows = QMC__PIXEL_STAGE_WORDS / nc;
-        if (rows > t->sample_count)
-            rows = (uint32_t)t->sample_count;
+        const uint32_t rows = qmc__pixel_block_rows(t, nc, dims, 0);
         for (uint32_t c = 0; c < nc; c++) {
             const uint32_t d = d0 + c;
             mode[c] = d < 2 && !framed ? QMC__PIXEL_PLAIN : QMC__PIXEL_OWEN;
@@ -218,8 +216,7 @@ static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format 
                 step[k][c] = rev_value(s, d0 + c, h);
         }
         for (uint64_t a = 0; a < t->sample_count; a += rows) {
-            const uint32_t n =
-                t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
+            const uint32_t n = qmc__pixel_block_n(t, a, rows);
             /* B: row r holds the sample part of sample start + a + r. */
             const uint64_t f0 = t->sample_start + a;
             for (uint32_t r = 0; r < n; r++) {
@@ -246,7 +243,7 @@ static void sobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format 
                             seed[c] = sobol_seed(p, x, y, d0 + c);
                     }
                     qmc__pixel_pattern_set(&pt, xorc, framed ? seed : NULL, NULL);
-                    char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
+                    void *o = qmc__pixel_out(out, t, pixel, a, dims, d0, esize);
                     qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }
         }

@@ -278,11 +278,7 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
     for (uint32_t d0 = 0, nc; d0 < dims; d0 += nc) {
         nc = qmc__pixel_pass_cols(dims, d0);
         const uint32_t np = (nc + 1) / 2;
-        /* Rows per block: the staging holds np words a row; the scratch
-         * (nc values a row) serves only passes narrower than a row. */
-        uint32_t rows = QMC__PIXEL_STAGE_WORDS / (nc == dims ? np : nc);
-        if (rows > t->sample_count)
-            rows = (uint32_t)t->sample_count;
+        const uint32_t rows = qmc__pixel_block_rows(t, nc, dims, 1);
         for (uint32_t k = 0; k < np; k++) {
             const uint32_t dim = d0 + 2 * k;
             salt[k] = salt_of(dim, p->frame_mix);
@@ -307,11 +303,10 @@ static void zsobol_fill(const qmc_pixels *p, const qmc_pixel_tile *t, qmc_format
                 }
                 qmc__pixel_pattern_set(&pt, xorc, NULL, NULL);
                 for (uint64_t a = 0; a < t->sample_count; a += rows) {
-                    const uint32_t n =
-                        t->sample_count - a < rows ? (uint32_t)(t->sample_count - a) : rows;
+                    const uint32_t n = qmc__pixel_block_n(t, a, rows);
                     for (uint32_t k = 0; k < np; k++)
                         sample_part(p, mpix, salt[k], t->sample_start + a, n, in + k, np);
-                    char *o = (char *)out + (qmc__pixel_offset(t, pixel, a, dims) + d0) * esize;
+                    void *o = qmc__pixel_out(out, t, pixel, a, dims, d0, esize);
                     qmc__pixel_emit(p->isa, &pt, in, 0, 0, n, fmt, o, dims, scratch);
                 }
             }

@@ -9,6 +9,13 @@
  * They are written here from the published definitions; the test vectors
  * in tests/vectors/ (made by compiling pbrt-v4's own functions outside
  * this tree) are what prove they agree.  Nothing here keeps state.
+ *
+ * The bodies of MixBits, the Owen scramble and PermutationElement's steps
+ * are statement macros on an lvalue (QMC__*_STEPS), each used by the
+ * scalar function beside it and by the pixel samplers' vector kernels
+ * (pixel_kernel.h), where the same operators act on GCC vector lanes and
+ * the scalar constants broadcast: one definition, so the vector values
+ * are the scalar ones by construction (test_pixel compares them anyway).
  */
 #ifndef QMC_RENDER_HASH_H
 #define QMC_RENDER_HASH_H
@@ -80,13 +87,18 @@ static inline uint64_t qmc__hash_i32x4(uint32_t a, uint32_t b, uint32_t c, uint3
  * constants from http://zimbry.blogspot.ch/2011/09/): a bijection with
  * full avalanche.  Not qmc__mix64 (bits.h), whose constants differ.
  */
+#define QMC__MIX_BITS_STEPS(v)        \
+    do {                              \
+        (v) ^= (v) >> 31;             \
+        (v) *= 0x7fb5d329728ea185ull; \
+        (v) ^= (v) >> 27;             \
+        (v) *= 0x81dadef4bc2dd44dull; \
+        (v) ^= (v) >> 33;             \
+    } while (0)
+
 static inline uint64_t qmc__mix_bits(uint64_t v)
 {
-    v ^= v >> 31;
-    v *= 0x7fb5d329728ea185ull;
-    v ^= v >> 27;
-    v *= 0x81dadef4bc2dd44dull;
-    v ^= v >> 33;
+    QMC__MIX_BITS_STEPS(v);
     return v;
 }
 
@@ -99,13 +111,20 @@ static inline uint64_t qmc__mix_bits(uint64_t v)
  * reversed-domain core: it takes and returns bit-reversed words, so a
  * caller that keeps its values reversed saves both reversals.
  */
+#define QMC__FAST_OWEN_STEPS(r, seed, smul) \
+    do {                                     \
+        (r) ^= (r) * 0x3d20adeau;            \
+        (r) += (seed);                       \
+        (r) *= (smul);                       \
+        (r) ^= (r) * 0x05526c56u;            \
+        (r) ^= (r) * 0x53a22864u;            \
+    } while (0)
+
+/* smul = (seed >> 16) | 1: a caller with many values and few seeds (the
+ * pixel kernels) computes it once per seed. */
 static inline uint32_t qmc__fast_owen_reversed(uint32_t r, uint32_t seed)
 {
-    r ^= r * 0x3d20adeau;
-    r += seed;
-    r *= (seed >> 16) | 1u;
-    r ^= r * 0x05526c56u;
-    r ^= r * 0x53a22864u;
+    QMC__FAST_OWEN_STEPS(r, seed, (seed >> 16) | 1u);
     return r;
 }
 
@@ -124,6 +143,28 @@ static inline uint32_t qmc__fast_owen(uint32_t v, uint32_t seed)
  * cannot reach) is the natural limit of the same steps: w = 2^32 - 1, no
  * cycle walking, and the modulo of the wrapped sum is the identity.
  */
+#define QMC__PERMUTATION_STEPS(i, w, p) \
+    do {                                \
+        (i) ^= (p);                     \
+        (i) *= 0xe170893du;             \
+        (i) ^= (p) >> 16;               \
+        (i) ^= ((i) & (w)) >> 4;        \
+        (i) ^= (p) >> 8;                \
+        (i) *= 0x0929eb3fu;             \
+        (i) ^= (p) >> 23;               \
+        (i) ^= ((i) & (w)) >> 1;        \
+        (i) *= 1u | (p) >> 27;          \
+        (i) *= 0x6935fa69u;             \
+        (i) ^= ((i) & (w)) >> 11;       \
+        (i) *= 0x74dcb303u;             \
+        (i) ^= ((i) & (w)) >> 2;        \
+        (i) *= 0x9e501cc3u;             \
+        (i) ^= ((i) & (w)) >> 2;        \
+        (i) *= 0xc860a3dfu;             \
+        (i) &= (w);                     \
+        (i) ^= (i) >> 5;                \
+    } while (0)
+
 static inline uint32_t qmc__permutation_element32(uint32_t i, uint64_t l, uint32_t p)
 {
     uint32_t w = (uint32_t)(l - 1);
@@ -133,24 +174,7 @@ static inline uint32_t qmc__permutation_element32(uint32_t i, uint64_t l, uint32
     w |= w >> 8;
     w |= w >> 16;
     do {
-        i ^= p;
-        i *= 0xe170893du;
-        i ^= p >> 16;
-        i ^= (i & w) >> 4;
-        i ^= p >> 8;
-        i *= 0x0929eb3fu;
-        i ^= p >> 23;
-        i ^= (i & w) >> 1;
-        i *= 1u | p >> 27;
-        i *= 0x6935fa69u;
-        i ^= (i & w) >> 11;
-        i *= 0x74dcb303u;
-        i ^= (i & w) >> 2;
-        i *= 0x9e501cc3u;
-        i ^= (i & w) >> 2;
-        i *= 0xc860a3dfu;
-        i &= w;
-        i ^= i >> 5;
+        QMC__PERMUTATION_STEPS(i, w, p);
     } while (i >= l);
     /* pbrt adds in uint32_t: the sum wraps before the modulo. */
     return (uint32_t)((uint32_t)(i + p) % l);

@@ -134,11 +134,11 @@ static int check_spec(const qmc_sampling_spec *s, const qmc_integrand *f,
         return QMC_EINVAL;
     }
     if (s->sampler == QMC_SAMPLER_RQMC && s->scramble == QMC_SCRAMBLE_NONE) {
-        qmc__msg_str(why, "rqmc needs a random scramble (owen, shift)");
+        qmc__msg_str(why, "rqmc needs a random scramble (owen, fast-owen, shift)");
         return QMC_ESCRAMBLE;
     }
     if (s->sampler == QMC_SAMPLER_RQMC && s->scramble == QMC_SCRAMBLE_FAURE) {
-        qmc__msg_str(why, "faure is a deterministic scramble: rqmc needs owen (or shift for sobol)");
+        qmc__msg_str(why, "faure is a deterministic scramble: rqmc needs owen (or shift, fast-owen for sobol)");
         return QMC_ESCRAMBLE;
     }
     if (!(s->confidence > 0.0 && s->confidence < 1.0)) {

@@ -62,6 +62,8 @@ int qmc__check_scramble(const qmc_seq_spec *spec, unsigned allowed_mask,
         qmc__msg_str(why, " " text);
     QMC_SCRAMBLE_MAP(QMC__LIST_SCR)
 #undef QMC__LIST_SCR
+    if (spec->scramble == QMC_SCRAMBLE_FAST_OWEN)
+        qmc__msg_str(why, " (fast-owen scrambles base-2 digits: sobol only)");
     return QMC_ESCRAMBLE;
 }
 

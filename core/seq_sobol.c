@@ -15,13 +15,18 @@
  *    Laine-Karras-style hash of N. Vegdahl (2021).  The hash scrambles in
  *    bit-reversed order, so owen instances keep their direction numbers
  *    bit-reversed and reverse once per coordinate at the end.
+ *  - fast-owen: the same hash (pbrt-v4's FastOwenScrambler), seeded per
+ *    dimension as pbrt-v4's SobolSampler seeds it, Hash(dim, seed), so
+ *    that a seed below 2^32 gives pbrt's values (fast_owen_seed below).
  *  - QMC_SEQ_SHUFFLE: the index itself goes through a nested uniform
  *    scramble first (Burley section 4), which maps every aligned block of
  *    2^m indices onto an aligned block, so nets stay nets.
  * Per-dimension seeds are hashed from (seed, dimension, use): never raw.
  *
  * Must not: read the data file (the table is compiled in), or allocate.
- */#include "sobol_impl.h"
+ */
+#include "render_hash.h"
+#include "sobol_impl.h"
 #include "sobol_table.h"
 
 static int sobol_check(const qmc_seq_spec *spec, qmc__msg *why)
@@ -32,7 +37,8 @@ static int sobol_check(const qmc_seq_spec *spec, qmc__msg *why)
     return qmc__check_scramble(spec,
                                QMC__SCR_BIT(QMC_SCRAMBLE_NONE) |
                                    QMC__SCR_BIT(QMC_SCRAMBLE_SHIFT) |
-                                   QMC__SCR_BIT(QMC_SCRAMBLE_OWEN),
+                                   QMC__SCR_BIT(QMC_SCRAMBLE_OWEN) |
+                                   QMC__SCR_BIT(QMC_SCRAMBLE_FAST_OWEN),
                                why);
 }
 
@@ -66,6 +72,39 @@ static void direction_numbers(uint32_t dim, uint32_t v[BITS])
     }
 }
 
+/*
+ * fast-owen's seed of dimension j: the low 32 bits of MurmurHash64A (seed
+ * 0) over j as 4 little-endian bytes followed by the user's seed as 4
+ * little-endian bytes when it is below 2^32, or as 8 when it is not.  The
+ * first case is pbrt-v4's Hash(int dimension, int seed) truncated to the
+ * uint32_t FastOwenScrambler takes (SobolSampler::SampleDimension), so
+ * pbrt's seeds (ints, negative ones as their two's complement) give pbrt's
+ * values; the 12-byte case keeps all 64 bits of larger seeds.
+ */
+static uint32_t fast_owen_seed(uint64_t seed, uint32_t j)
+{
+    if (seed <= UINT32_MAX)
+        return (uint32_t)qmc__hash_i32x2(j, (uint32_t)seed);
+    unsigned char buf[12];
+    for (int b = 0; b < 4; b++)
+        buf[b] = (unsigned char)(j >> (8 * b));
+    for (int b = 0; b < 8; b++)
+        buf[4 + b] = (unsigned char)(seed >> (8 * b));
+    return (uint32_t)qmc__murmur64a(buf, sizeof buf, 0);
+}
+
+static uint32_t dim_seed(const qmc_seq_spec *spec, uint32_t j)
+{
+    switch (spec->scramble) {
+    case QMC_SCRAMBLE_FAST_OWEN:
+        return fast_owen_seed(spec->seed, j);
+    case QMC_SCRAMBLE_SHIFT:
+        return (uint32_t)qmc__hash3(spec->seed, j, QMC__TAG_SHIFT);
+    default: /* owen; unused by none */
+        return (uint32_t)qmc__hash3(spec->seed, j, QMC__TAG_OWEN);
+    }
+}
+
 static void sobol_init(qmc_seq *seq)
 {
     const qmc_seq_spec *spec = &seq->spec;
@@ -73,7 +112,7 @@ static void sobol_init(qmc_seq *seq)
     uint32_t *t = seq->tables;
     uint32_t *vt = t, *wt = t + (size_t)BITS * d, *seed = wt + ((size_t)BITS + 1) * d;
     memset(wt + (size_t)BITS * d, 0, d * sizeof *wt);
-    const int reversed = spec->scramble == QMC_SCRAMBLE_OWEN;
+    const int reversed = kernel_scramble(spec->scramble) == QMC_SCRAMBLE_OWEN;
     for (size_t j = 0; j < d; j++) {
         uint32_t v[BITS];
         direction_numbers((uint32_t)j, v);
@@ -84,9 +123,7 @@ static void sobol_init(qmc_seq *seq)
             prefix ^= x;
             wt[(size_t)k * d + j] = prefix;
         }
-        uint64_t tag = spec->scramble == QMC_SCRAMBLE_SHIFT ? QMC__TAG_SHIFT
-                                                            : QMC__TAG_OWEN;
-        seed[j] = (uint32_t)qmc__hash3(spec->seed, j, tag);
+        seed[j] = dim_seed(spec, (uint32_t)j);
     }
     seed[d] = (uint32_t)qmc__hash3(spec->seed, 0, QMC__TAG_SHUFFLE);
     seed[d + 1] = 0;
@@ -121,7 +158,7 @@ static uint32_t sobol_bits_at(const qmc_seq *seq, uint64_t index, uint32_t dim)
     sobol_view s = view(seq);
     uint32_t i = shuffled_index(seq, s, index);
     return finish(gather(s.v + (size_t)dim * BITS, i), s.seed[dim],
-                  seq->spec.scramble);
+                  kernel_scramble(seq->spec.scramble));
 }
 
 static double sobol_at(const qmc_seq *seq, uint64_t index, uint32_t dim)
@@ -136,9 +173,7 @@ static void sobol_fill(const qmc_seq *seq, uint64_t start, uint64_t count,
      * them directly is cheaper than a batch fill's setup. */
     if (!(seq->spec.flags & QMC_SEQ_SHUFFLE) && count > 2) {
 #ifdef QMC__SOBOL_AVX2
-        /* Reads flags libgcc/compiler-rt set once at startup. */
-        if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-            __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq")) {
+        if (qmc__sobol_has_avx512()) {
             qmc__sobol_fill_avx512(seq, start, count, fmt, out);
             return;
         }

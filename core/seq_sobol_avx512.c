@@ -1,7 +1,8 @@
 /*
  * seq_sobol_avx512.c - the Sobol fill kernels built with AVX-512 (F, VL,
- * BW, DQ; the Makefile sets the flags for this file on x86-64), for the
- * one-instruction u32 -> f64 conversion and the wider integer units.
+ * BW, DQ) and GFNI (the Makefile sets the flags for this file on x86-64),
+ * for the one-instruction u32 -> f64 conversion, the one-instruction bit
+ * reversal of bytes and the wider integer units.
  * seq_sobol.c calls it only when the CPU reports those extensions; results
  * equal the baseline build's bit for bit.
  */

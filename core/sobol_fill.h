@@ -1,7 +1,7 @@
 /*
  * sobol_fill.h - the Sobol batch-fill kernels, as static inline functions
- * (private; included only by seq_sobol_fill.c and seq_sobol_avx2.c, which
- * compile them for different instruction sets).
+ * (private; included only by seq_sobol_fill.c, seq_sobol_avx2.c and
+ * seq_sobol_avx512.c, which compile them for different instruction sets).
  *
  * From i to i+1 exactly bits 0..c flip, c = ctz(i+1), so each dimension's
  * state takes one XOR with the prefix XOR W_c of its direction numbers:
@@ -43,16 +43,23 @@ static inline u32x8 load8(const uint32_t *p)
 #endif
 
 /* Bit reversal of each lane: bytes reversed by a constant shuffle, then the
- * bits within each byte - with AVX2 by looking up both nibbles in a
- * 16-entry table (two vpshufb), otherwise by three swap steps.  Same bits
- * either way; the unit tests compare the two builds. */
+ * bits within each byte - with GFNI (the AVX-512 build) by one affine
+ * transform over GF(2) whose matrix is the bit-reversal permutation
+ * (vgf2p8affineqb: result bit i is the parity of x AND matrix byte 7 - i,
+ * so the matrix 0x8040201008040201 makes it bit 7 - i of x), with AVX2 by
+ * looking up both nibbles in a 16-entry table (two vpshufb), otherwise by
+ * three swap steps.  Same bits every way; the unit tests compare the
+ * builds. */
 static inline u32x8 reverse8(u32x8 x)
 {
     u8x32 b = (u8x32)x;
     b = __builtin_shufflevector(b, b, 3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14,
                                 13, 12, 19, 18, 17, 16, 23, 22, 21, 20, 27, 26, 25,
                                 24, 31, 30, 29, 28);
-#ifdef __AVX2__
+#if defined(__GFNI__) && defined(__AVX__)
+    return (u32x8)_mm256_gf2p8affine_epi64_epi8((__m256i)b,
+                                                _mm256_set1_epi64x(0x8040201008040201ll), 0);
+#elif defined(__AVX2__)
     /* rev_hi[n]: the 4 bits of n reversed, in the high nibble. */
     const __m256i rev_hi = _mm256_setr_epi8(
         0x00, (char)0x80, 0x40, (char)0xc0, 0x20, (char)0xa0, 0x60, (char)0xe0, 0x10,
@@ -99,6 +106,13 @@ store8(void *out, size_t k, u32x8 y, qmc_format fmt)
 {
     switch (fmt) {
     case QMC_FORMAT_F64: {
+#ifdef __AVX512F__
+        /* One exact u32 -> f64 conversion (vcvtudq2pd) and an exact scaling
+         * by 2^-32: the same bits as unit_from_bits. */
+        __m512d d = _mm512_mul_pd(_mm512_cvtepu32_pd((__m256i)y), _mm512_set1_pd(0x1p-32));
+        _mm512_storeu_pd((double *)out + k, d);
+        break;
+#endif
         /* The double 1 + y * 2^-32 has low word y << 20 and high word
          * 0x3ff00000 | y >> 12; build both words for 8 lanes and
          * interleave them (little-endian: low word first), cheaper than
@@ -123,6 +137,102 @@ store8(void *out, size_t k, u32x8 y, qmc_format fmt)
         break;
     }
 }
+
+#ifdef __AVX512VBMI__
+/*
+ * Owen-scrambled f64 without a conversion instruction.  With y =
+ * reverse32(h), the double 16 + y * 2^-32 has exponent 0x403 and mantissa
+ * y << 16, which is byte-aligned: its 8 bytes, little-endian, are 0, 0,
+ * y's four bytes, 0x30, 0x40.  Byte i of y is byte 3 - i of h with its
+ * bits reversed, so one two-source byte permute (vpermt2b) lays out h's
+ * bytes in that order beside constant bytes stored bit-reversed (0x0c,
+ * 0x02), one GF(2) affine transform reverses the bits of every byte, and
+ * subtracting 16 is exact: y * 2^-32, the same bits as store() of y.
+ * Row 0 of the permute table takes lanes 0..7 of h, row 1 lanes 8..15;
+ * indices 64.. pick the constant bytes (0x00, 0x0c, 0x02).
+ */
+static const uint8_t owen_f64_permute[2][64] = {
+#define QMC__OWEN_F64_QWORD(l) 64, 64, 4 * (l) + 3, 4 * (l) + 2, 4 * (l) + 1, 4 * (l), 65, 66
+    {QMC__OWEN_F64_QWORD(0), QMC__OWEN_F64_QWORD(1), QMC__OWEN_F64_QWORD(2),
+     QMC__OWEN_F64_QWORD(3), QMC__OWEN_F64_QWORD(4), QMC__OWEN_F64_QWORD(5),
+     QMC__OWEN_F64_QWORD(6), QMC__OWEN_F64_QWORD(7)},
+    {QMC__OWEN_F64_QWORD(8), QMC__OWEN_F64_QWORD(9), QMC__OWEN_F64_QWORD(10),
+     QMC__OWEN_F64_QWORD(11), QMC__OWEN_F64_QWORD(12), QMC__OWEN_F64_QWORD(13),
+     QMC__OWEN_F64_QWORD(14), QMC__OWEN_F64_QWORD(15)},
+#undef QMC__OWEN_F64_QWORD
+};
+
+/* 8 doubles from lanes 8 * half .. 8 * half + 7 of h (512 bits; only the
+ * low 256 are read when half is 0). */
+static inline __attribute__((always_inline)) void
+owen_f64_store(double *o, __m512i h, int half)
+{
+    const __m512i idx = _mm512_loadu_si512(owen_f64_permute[half]);
+    const __m512i bytes = _mm512_set_epi64(0, 0, 0, 0, 0, 0, 0, 0x020c00);
+    __m512i b = _mm512_permutex2var_epi8(h, idx, bytes);
+    b = _mm512_gf2p8affine_epi64_epi8(b, _mm512_set1_epi64(0x8040201008040201ll), 0);
+    _mm512_storeu_pd(o, _mm512_sub_pd(_mm512_castsi512_pd(b), _mm512_set1_pd(16.0)));
+}
+#endif
+
+/* The scramble and the store of 8 coordinates from their states: what
+ * every fill loop does per vector. */
+static inline __attribute__((always_inline)) void
+emit8(void *out, size_t k, u32x8 state, u32x8 seed, qmc_scramble scr, qmc_format fmt)
+{
+#ifdef __AVX512VBMI__
+    if (scr == QMC_SCRAMBLE_OWEN && fmt == QMC_FORMAT_F64) {
+        owen_f64_store((double *)out + k, _mm512_castsi256_si512((__m256i)lk_hash8(state, seed)),
+                       0);
+        return;
+    }
+#endif
+    store8(out, k, finish8(state, seed, scr), fmt);
+}
+
+#if defined(__AVX512BW__) && defined(__GFNI__)
+/*
+ * The AVX-512 build walks 16 dimensions per vector where it can: a 512-bit
+ * instruction costs the front end and the scheduler what a 256-bit one
+ * does, so the hash of 16 coordinates costs about what 8 did (measured,
+ * owen f64 at d = 32: 16% more coordinates a second).  Same hash (the
+ * statement list of QMC__LK_HASH_STEPS), same stores, same bits.
+ */
+#define QMC__SOBOL_WIDE 1
+typedef uint32_t u32x16 __attribute__((vector_size(64)));
+
+static inline u32x16 load16(const uint32_t *p)
+{
+    u32x16 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static inline __attribute__((always_inline)) void
+emit16(void *out, size_t k, u32x16 state, u32x16 seed, qmc_scramble scr, qmc_format fmt)
+{
+    u32x16 y = state;
+    if (scr == QMC_SCRAMBLE_OWEN) {
+        QMC__LK_HASH_STEPS(y, seed);
+#ifdef __AVX512VBMI__
+        if (fmt == QMC_FORMAT_F64) {
+            owen_f64_store((double *)out + k, (__m512i)y, 0);
+            owen_f64_store((double *)out + k + 8, (__m512i)y, 1);
+            return;
+        }
+#endif
+        /* reverse8's steps on 16 lanes: bytes within each lane, then bits */
+        const __m512i bswap = _mm512_broadcast_i32x4(
+            _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12));
+        y = (u32x16)_mm512_gf2p8affine_epi64_epi8(_mm512_shuffle_epi8((__m512i)y, bswap),
+                                                  _mm512_set1_epi64(0x8040201008040201ll), 0);
+    } else if (scr == QMC_SCRAMBLE_SHIFT) {
+        y ^= seed;
+    }
+    store8(out, k, __builtin_shufflevector(y, y, 0, 1, 2, 3, 4, 5, 6, 7), fmt);
+    store8(out, k + 8, __builtin_shufflevector(y, y, 8, 9, 10, 11, 12, 13, 14, 15), fmt);
+}
+#endif
 
 /*
  * Points per block.  When the whole output fits in cache, blocks of up to
@@ -195,22 +305,33 @@ fill_blocks(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
                 const size_t at = (size_t)(p0 + p) * d + d8;
                 x ^= load8(row[p] + d8);
                 if (at + 8 <= limit) {
-                    store8(out, at, finish8(x, seed, scr), fmt);
+                    emit8(out, at, x, seed, scr, fmt);
                     continue;
                 }
                 uint32_t lanes[16];
-                store8(lanes, 0, finish8(x, seed, scr), fmt);
+                emit8(lanes, 0, x, seed, scr, fmt);
                 char *o = (char *)out + at * value;
                 for (size_t w = 0; w < words; w++)
                     memcpy(o + 4 * w, lanes + w, 4);
             }
             memcpy(st + (d8 - j_begin), &x, t * sizeof(uint32_t));
         }
-        for (uint32_t j = j_begin; j < d8; j += 8) {
+        uint32_t j = j_begin;
+#ifdef QMC__SOBOL_WIDE
+        for (; j + 16 <= d8; j += 16) {
+            u32x16 x = load16(st + (j - j_begin)), seed = load16(s.seed + j);
+            for (uint32_t p = 0; p < n; p++) {
+                x ^= load16(row[p] + j);
+                emit16(out, (size_t)(p0 + p) * d + j, x, seed, scr, fmt);
+            }
+            memcpy(st + (j - j_begin), &x, sizeof x);
+        }
+#endif
+        for (; j < d8; j += 8) {
             u32x8 x = load8(st + (j - j_begin)), seed = load8(s.seed + j);
             for (uint32_t p = 0; p < n; p++) {
                 x ^= load8(row[p] + j);
-                store8(out, (size_t)(p0 + p) * d + j, finish8(x, seed, scr), fmt);
+                emit8(out, (size_t)(p0 + p) * d + j, x, seed, scr, fmt);
             }
             memcpy(st + (j - j_begin), &x, sizeof x);
         }
@@ -354,7 +475,7 @@ fill_packed(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
             u32x8 x = load8(st + q), sd = load8(seed + q);
             for (uint32_t m = 0; m < n; m++) {
                 x ^= load8(row[m] + j); /* lanes q..q+7: dimensions j.. */
-                store8(out, (size_t)(b0 + m) * lanes + q, finish8(x, sd, scr), fmt);
+                emit8(out, (size_t)(b0 + m) * lanes + q, x, sd, scr, fmt);
             }
             memcpy(st + q, &x, sizeof x);
         }
@@ -366,7 +487,7 @@ fill_packed(const qmc_seq *seq, uint64_t start, uint64_t count, qmc_format fmt,
 static inline void fill_pointwise(const qmc_seq *seq, uint64_t start, uint64_t count,
                                   qmc_format fmt, void *out)
 {
-    const qmc_scramble scr = seq->spec.scramble;
+    const qmc_scramble scr = kernel_scramble(seq->spec.scramble);
     const uint32_t d = seq->spec.dims;
     for (uint32_t j0 = 0; j0 < d; j0 += CHUNK) {
         const uint32_t j1 = d - j0 > CHUNK ? j0 + CHUNK : d;
@@ -393,7 +514,7 @@ static inline void fill_pointwise(const qmc_seq *seq, uint64_t start, uint64_t c
 static inline void fill_packed_any(const qmc_seq *seq, uint64_t start, uint64_t count,
                                    qmc_format fmt, void *out)
 {
-    const qmc_scramble scr = seq->spec.scramble;
+    const qmc_scramble scr = kernel_scramble(seq->spec.scramble);
 #define QMC__SOBOL_CASE(F, S)                                                  \
     if (fmt == QMC_FORMAT_##F && scr == QMC_SCRAMBLE_##S) {                    \
         fill_packed(seq, start, count, QMC_FORMAT_##F, QMC_SCRAMBLE_##S, out); \

@@ -14,12 +14,14 @@
 #include <string.h>
 
 #include "bits.h"
+#include "render_hash.h"
 #include "seq_impl.h"
 
 enum { BITS = 32 };
 
 /* Table layout inside seq->tables:
- *   V[dims][32]    u32: direction numbers (bit-reversed for owen), for at()
+ *   V[dims][32]    u32: direction numbers (bit-reversed for owen and
+ *                  fast-owen), for at()
  *   W[33][dims]    u32: prefix XORs of V, transposed so a fill step reads
  *                  one contiguous row; row 32 is all zero (see fill_blocks)
  *   seed[dims+2]   u32: per-dimension scramble seeds, the shuffle seed, pad
@@ -45,9 +47,19 @@ typedef struct sobol_view {
     const uint32_t *packed; /* NULL unless has_packed() */
 } sobol_view;
 
+/*
+ * The kernels know one hash-based Owen scramble: fast-owen is owen's hash
+ * (the same lk_hash below) with other per-dimension seeds (seq_sobol.c),
+ * so everything past the seed table treats the two alike.
+ */
+static inline qmc_scramble kernel_scramble(qmc_scramble scr)
+{
+    return scr == QMC_SCRAMBLE_FAST_OWEN ? QMC_SCRAMBLE_OWEN : scr;
+}
+
 static inline int has_w64(const qmc_seq_spec *spec)
 {
-    return spec->scramble != QMC_SCRAMBLE_OWEN;
+    return kernel_scramble(spec->scramble) != QMC_SCRAMBLE_OWEN;
 }
 
 /*
@@ -55,14 +67,21 @@ static inline int has_w64(const qmc_seq_spec *spec)
  * 6 of 8; d = 30: 2 of 32); packing 8 points into d vectors fills them
  * all.  Measured (owen, f64, fills of 4096): 4.0 -> 0.9 ns a point at
  * d = 2, 4.1 -> 2.1 at d = 5, 10.4 -> 8.1 at d = 20, 13.9 -> 12.5 at
- * d = 30.  Rows: ctz(M) for M < 2^29 (indices below 2^32), and the zero
- * row.
+ * d = 30.  At a multiple of 8 no lane idles, but the packed walk still
+ * pays for one row step per 8 points instead of one per point, which
+ * matters when the per-coordinate work is small next to it, as for the
+ * Owen scrambles: owen f64 at d = 8, 16, 24 went from 2.9, 3.3, 3.4 to
+ * 4.0, 4.1, 4.1 billion coordinates a second (AVX-512 build; AVX2 1.8,
+ * 2.1, 2.1 -> 2.2, 2.3, 2.3); none and shift there keep their f64 fast
+ * path (fill_f64_blocks).  Rows: ctz(M) for M < 2^29 (indices below
+ * 2^32), and the zero row.
  */
 enum { QMC__SOBOL_PACK_DIMS = 32, QMC__SOBOL_PACK_ROWS = 30 };
 
 static inline int has_packed(const qmc_seq_spec *spec)
 {
-    return spec->dims < QMC__SOBOL_PACK_DIMS && spec->dims % 8 != 0;
+    return spec->dims < QMC__SOBOL_PACK_DIMS &&
+           (spec->dims % 8 != 0 || kernel_scramble(spec->scramble) == QMC_SCRAMBLE_OWEN);
 }
 
 static inline size_t packed_row_words(size_t d)
@@ -106,18 +125,12 @@ static inline sobol_view view(const qmc_seq *seq)
  * The Laine-Karras-style hash in bit-reversed order (Vegdahl 2021).  Each
  * step changes bit k of x only by a function of bits below k - the defining
  * property of a nested uniform (Owen) scramble in reversed bit order.
- * Written once as a statement list so the scalar lk_hash and the vector
- * lk_hash8 (sobol_fill.h; vector extensions broadcast the constants) are
- * the same function by construction.
+ * Written once as a statement list (render_hash.h's, pbrt-v4's
+ * FastOwenScrambler being this hash) so the scalar lk_hash, the vector
+ * lk_hash8 (sobol_fill.h; vector extensions broadcast the constants) and
+ * the pixel samplers' scramble are the same function by construction.
  */
-#define QMC__LK_HASH_STEPS(x, seed)  \
-    do {                             \
-        (x) ^= (x) * 0x3d20adeau;    \
-        (x) += (seed);               \
-        (x) *= ((seed) >> 16) | 1u;  \
-        (x) ^= (x) * 0x05526c56u;    \
-        (x) ^= (x) * 0x53a22864u;    \
-    } while (0)
+#define QMC__LK_HASH_STEPS(x, seed) QMC__FAST_OWEN_STEPS(x, seed, ((seed) >> 16) | 1u)
 
 static inline uint32_t lk_hash(uint32_t x, uint32_t seed)
 {
@@ -194,6 +207,18 @@ void qmc__sobol_fill_avx2(const qmc_seq *seq, uint64_t start, uint64_t count,
                           qmc_format fmt, void *out);
 void qmc__sobol_fill_avx512(const qmc_seq *seq, uint64_t start, uint64_t count,
                             qmc_format fmt, void *out);
+
+/* May qmc__sobol_fill_avx512 run here?  It is built for AVX-512 F, VL, BW,
+ * DQ and VBMI (byte permutes) and for GFNI (a one-instruction bit reversal
+ * of every byte), which the Owen scrambles use per coordinate: Intel from
+ * Ice Lake and AMD from Zen 4 have them all; older AVX-512 parts take the
+ * AVX2 build.  Reads flags libgcc/compiler-rt set once at startup. */
+static inline int qmc__sobol_has_avx512(void)
+{
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vbmi") && __builtin_cpu_supports("gfni");
+}
 #endif
 
 #endif

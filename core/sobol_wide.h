@@ -48,14 +48,21 @@ static inline uint32_t qmc__sobol_dim1_reversed(uint64_t index)
     return (uint32_t)x;
 }
 
-/* The same for an index below 2^32 (five steps, 32-bit lanes). */
+/* The same for an index below 2^32 (five steps, 32-bit lanes); the steps
+ * are a macro on an lvalue so the pixel kernels (pixel_kernel.h) run them
+ * on vector lanes too. */
+#define QMC__SOBOL_DIM1_REVERSED32_STEPS(x) \
+    do {                                    \
+        (x) ^= ((x) >> 1) & 0x55555555u;    \
+        (x) ^= ((x) >> 2) & 0x33333333u;    \
+        (x) ^= ((x) >> 4) & 0x0f0f0f0fu;    \
+        (x) ^= ((x) >> 8) & 0x00ff00ffu;    \
+        (x) ^= ((x) >> 16) & 0x0000ffffu;   \
+    } while (0)
+
 static inline uint32_t qmc__sobol_dim1_reversed32(uint32_t x)
 {
-    x ^= (x >> 1) & 0x55555555u;
-    x ^= (x >> 2) & 0x33333333u;
-    x ^= (x >> 4) & 0x0f0f0f0fu;
-    x ^= (x >> 8) & 0x00ff00ffu;
-    x ^= (x >> 16) & 0x0000ffffu;
+    QMC__SOBOL_DIM1_REVERSED32_STEPS(x);
     return x;
 }
 

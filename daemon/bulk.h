@@ -31,9 +31,21 @@ typedef struct qmcd_bulk {
     int shm;                      /* 1: through the connection's ring */
     int64_t t0_us;
     uint64_t *counter;            /* a STATS counter of points sent, or NULL */
+    int end_follows;              /* 1: END goes right behind the last chunk when
+                                     it fits, in the same pump (POINTS: a small
+                                     request costs one turn, not two) */
     qmcd_bulk_fill_fn fill;
     void *ctx;
 } qmcd_bulk;
+
+/*
+ * The transport half of qmcd_bulk_init, for a handler whose checks must
+ * come in another order: QMC_TRANSPORT_SHM needs a ring on the
+ * connection.  On a refusal answers ERROR for request_id, naming `what`,
+ * and returns -1; else 0.
+ */
+int qmcd_bulk_check_transport(qmcd_conn *c, uint64_t request_id, const char *what,
+                              qmc_points_transport transport);
 
 /*
  * Sets up b for a request: transport (QMC_TRANSPORT_SHM needs a ring),
@@ -46,13 +58,19 @@ int qmcd_bulk_init(qmcd_conn *c, qmcd_bulk *b, uint64_t request_id, const char *
                    const char *point, qmc_points_transport transport, size_t row_bytes,
                    size_t value_bytes, uint64_t first, uint64_t count, int64_t t0_us);
 
-/* One frame: the next chunk, or END.  Returns a QMCD_PUMP_* status:
- * SENT (| FLUSH for ring chunks worth sending now), DONE after END,
- * NO_ROOM, WAIT (every ring slot held), FAILED after an ERROR. */
+/* One frame: the next chunk, or END (and with end_follows, the last
+ * chunk and END).  Returns a QMCD_PUMP_* status: SENT (| FLUSH for ring
+ * chunks worth sending now), DONE after END (| FLUSH likewise), NO_ROOM,
+ * WAIT (every ring slot held), FAILED after an ERROR or when the
+ * connection closed. */
 int qmcd_bulk_pump(qmcd_conn *c, qmcd_bulk *b);
 
 /* QMCD_WAIT_RING while the stream's next chunk waits for a slot, else
  * QMCD_WAIT_NONE. */
 qmcd_wait qmcd_bulk_waiting(const qmcd_conn *c, const qmcd_bulk *b);
+
+/* The kinds' shutdown: a stream has no early end a client could wait
+ * for, so at the drain deadline its connection is cut (returns 1). */
+int qmcd_bulk_shutdown(qmcd_conn *c, qmcd_producer *p);
 
 #endif

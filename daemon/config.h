@@ -39,6 +39,13 @@
     X("modbus-max-connections", modbus_max_connections, 256, 1, 1u << 16, 1)   \
     X("modbus-frame-timeout-ms", modbus_frame_timeout_ms, 5000, 50, 3600000, 1) \
     X("modbus-max-sessions", modbus_max_sessions, 1024, 1, 1u << 16, 1)         \
+    X("modbus-max-connections-per-peer", modbus_max_connections_per_peer, 0, 0, 1u << 16, 1) \
+    X("modbus-max-sessions-per-peer", modbus_max_sessions_per_peer, 0, 0, 1u << 16, 1) \
+    X("modbus-integration-memory", modbus_integration_memory, 16u << 20, 0, 1ull << 40, 1) \
+    X("modbus-integration-memory-total", modbus_integration_memory_total, 256u << 20, 0,  \
+      1ull << 44, 1)                                                             \
+    X("modbus-integration-memory-per-peer", modbus_integration_memory_per_peer, 0, 0,     \
+      1ull << 44, 1)                                                             \
     X("max-connections-per-peer", max_connections_per_peer, 64, 1, 1u << 20, 1)  \
     X("out-buffer-total-bytes", out_buffer_total_bytes, 128u << 20, 1u << 20, 1ull << 40, 1) \
     X("max-cancels-per-conn", max_cancels_per_conn, 64, 1, 1u << 20, 1)         \

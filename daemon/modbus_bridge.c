@@ -29,6 +29,10 @@ int qmcd_modbus_open(qmcd_server *srv, char *why, size_t why_bytes)
     srv->modbus = mb;
     mb->srv = srv;
     mb->started_ms = qmcd_now_ms();
+    if (qmc_modbus_session_new(&mb->defaults) != 0 || qmcd_peers_new(&mb->net_conns) != 0) {
+        snprintf(why, why_bytes, "modbus: out of memory");
+        goto fail;
+    }
     if (qmcd_modbus_allow_parse(cfg->modbus_allow, mb->allow, &mb->n_allow, why, why_bytes))
         goto fail;
     mb->listeners = calloc(cfg->n_modbus, sizeof *mb->listeners);
@@ -98,6 +102,13 @@ uint32_t qmcd_modbus_stats(const qmcd_server *srv, qmc_stat *e, uint32_t cap)
         {"modbus_connections_accepted", &mb->ctr.conns_accepted},
         {"modbus_connections_refused", &mb->ctr.conns_refused},
         {"modbus_connections_open", &mb->ctr.conns_open},
+        {"modbus_refused_connections_per_peer", &mb->ctr.conns_refused_per_peer},
+        {"modbus_sessions", &mb->ctr.sessions},
+        {"modbus_refused_sessions_per_peer", &mb->ctr.sessions_refused_per_peer},
+        {"modbus_refused_sessions", &mb->ctr.sessions_refused},
+        {"modbus_integrations", &mb->ctr.integrations},
+        {"modbus_integration_bytes", &mb->ctr.integration_bytes},
+        {"modbus_refused_integrations", &mb->ctr.integrations_refused},
     };
     uint32_t n = 0;
     for (size_t i = 0; i < sizeof rows / sizeof rows[0] && n < cap; i++, n++) {
@@ -146,6 +157,8 @@ void qmcd_modbus_close(qmcd_server *srv)
     qmcd__modbus_sessions_free(mb);
     for (unsigned i = 0; i < mb->n_rtus; i++)
         qmcd__modbus_rtu_free(mb->rtus[i]);
+    qmc_modbus_session_free(mb->defaults);
+    qmcd_peers_free(mb->net_conns);
     free(mb->listeners);
     free(mb);
     srv->modbus = NULL;

@@ -9,8 +9,13 @@
  * bank, owned by this thread alone) and an env snapshot of the counters,
  * which are atomics; it never reads the loop's connections, jobs or the
  * configuration a SIGHUP replaces (everything this file needs is copied at
- * open).  So no lock is needed and a busy loop never delays a serial
- * reply past the master's timeout.
+ * open, the integration memory caps included: a line keeps the caps it
+ * started with until a restart).  So no lock is needed and a busy loop
+ * never delays a serial reply past the master's timeout.  Its bank's
+ * integration memory counts against modbus-integration-memory-total
+ * through the atomics; a start on the line and one on TCP at the same
+ * moment may both fit the room each saw, so the total can be passed by
+ * at most one bank's cap per line.
  *
  * The thread waits in poll() on the line and on an eventfd, so stopping
  * it is a write to the eventfd, not a pthread_cancel inside libmodbus.
@@ -40,6 +45,8 @@ struct qmcd_mb_rtu {
     char name[QMCD_PATH_BYTES + 32];
     modbus_t *ctx;
     qmc_modbus_session *sess;
+    qmc_modbus_usage usage;      /* its integration's, as last counted */
+    uint64_t integ_bytes, integ_total; /* the caps, copied at open */
     int stop_fd;                 /* eventfd: readable means stop */
     pthread_t thread;
     int started;
@@ -61,6 +68,8 @@ int qmcd__modbus_rtu_open(qmcd_modbus *mb, const qmcd_modbus_rtu_spec *spec, qmc
     }
     r->mb = mb;
     r->spec = *spec;
+    r->integ_bytes = mb->srv->cfg.modbus_integration_memory;
+    r->integ_total = mb->srv->cfg.modbus_integration_memory_total;
     r->stop_fd = -1;
     snprintf(r->name, sizeof r->name, "rtu:%s:%d:%c:%d:%d:%d%s", spec->device, spec->baud,
              spec->parity, spec->data_bits, spec->stop_bits, spec->unit,
@@ -111,9 +120,14 @@ static void answer(qmcd_mb_rtu *r, const uint8_t *adu, int n)
         return;
     qmc_modbus_env env;
     qmcd__modbus_env(r->mb, &env);
+    /* A line is one device: its room is the bank's cap and what the
+     * others leave of the total (no peer share). */
+    env.integration_bytes_max = qmcd__modbus_room(r->mb, r->integ_bytes, r->integ_total,
+                                                  r->usage.integration_bytes, UINT64_MAX);
     uint8_t raw[1 + QMC_MODBUS_MAX_PDU];
     int m = qmc_modbus_handle(r->sess, &env, adu + header, (size_t)pdu_len, raw + 1,
                               QMC_MODBUS_MAX_PDU);
+    qmcd__modbus_account(r->mb, &r->usage, r->sess);
     if (m <= 0)
         return;
     qmcd__modbus_count(r->mb, raw + 1);
@@ -188,6 +202,8 @@ void qmcd__modbus_rtu_free(qmcd_mb_rtu *r)
     }
     if (r->stop_fd >= 0)
         close(r->stop_fd);
+    if (r->sess)
+        qmcd__modbus_account(r->mb, &r->usage, NULL);
     qmc_modbus_session_free(r->sess);
     free(r);
 }

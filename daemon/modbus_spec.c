@@ -124,6 +124,8 @@ int qmcd_modbus_spec_parse(const char *text, const char **hostport, qmcd_modbus_
     return -1;
 }
 
+/* One network; -1 for text that is not one, -2 for an IPv4-mapped IPv6
+ * network shorter than /96 (it would reach past the mapped addresses). */
 static int parse_cidr(const char *text, qmcd_cidr *c)
 {
     char addr[INET6_ADDRSTRLEN + 8];
@@ -148,6 +150,18 @@ static int parse_cidr(const char *text, qmcd_cidr *c)
     if (slash && parse_int(slash + 1, 0, max, &prefix) != 0)
         return -1;
     c->prefix = (unsigned)prefix;
+    /* Peers are matched IPv4-mapped ones as IPv4 (peer_bytes), so an
+     * entry written ::ffff:a.b.c.d/N is the IPv4 network a.b.c.d/(N-96):
+     * kept as IPv6 it could never match anyone. */
+    static const uint8_t mapped[12] = {[10] = 0xff, [11] = 0xff};
+    if (c->family == AF_INET6 && memcmp(c->addr, mapped, sizeof mapped) == 0) {
+        if (c->prefix < 96)
+            return -2;
+        memmove(c->addr, c->addr + 12, 4);
+        memset(c->addr + 4, 0, 12);
+        c->family = AF_INET;
+        c->prefix -= 96;
+    }
     return 0;
 }
 
@@ -173,7 +187,14 @@ int qmcd_modbus_allow_parse(const char *text, qmcd_cidr *list, unsigned *n, char
                      QMCD_MODBUS_MAX_ALLOW);
             return -1;
         }
-        if (parse_cidr(item, &list[*n]) != 0) {
+        int bad = parse_cidr(item, &list[*n]);
+        if (bad == -2) {
+            snprintf(why, why_bytes,
+                     "modbus-allow: '%s': an IPv4-mapped network needs a prefix of /96 or "
+                     "more; write the IPv4 network (a.b.c.d/N) instead", item);
+            return -1;
+        }
+        if (bad != 0) {
             snprintf(why, why_bytes,
                      "modbus-allow: '%s' is not an address or CIDR (10.0.0.0/8, fd00::/8)",
                      item);

@@ -7,14 +7,18 @@
  *
  * A complete frame is answered at once by the pure handler
  * (protocol/modbus.c) with the bank of (client address, unit id) (see
- * modbus_sessions.c for why not one per connection) and the reply queued; frames are read only while a full reply still fits, so a
+ * modbus_sessions.c for why not one per connection; a client without one
+ * is answered from the never-written default bank unless it writes) and
+ * the reply queued; frames are read only while a full reply still fits, so a
  * client that does not read its answers stops being read rather than
  * growing a buffer, and is closed once no reply has been taken for
  * write-timeout-ms.  A client that starts a frame and does not finish it
  * within modbus-frame-timeout-ms is closed; so is one idle for
  * idle-timeout-ms.  Nothing here blocks, so a client dribbling one byte
  * every 100 ms costs the others nothing (libmodbus's own server waits in
- * select() for the rest of the frame, stalling everyone).
+ * select() for the rest of the frame, stalling everyone).  At accept, a
+ * peer (modbus_peer.c) holding modbus-max-connections-per-peer is closed,
+ * so silent sockets from one peer cannot take modbus-max-connections.
  *
  * Must not: interpret registers, or touch conn.c's connections.
  */
@@ -47,6 +51,7 @@ struct qmcd_mb_conn {
     qmcd_modbus *mb;
     qmcd_mb_conn *prev, *next;   /* mb->conns, or mb->dead */
     qmcd_mb_peer key;            /* whose banks (modbus_sessions.c) */
+    qmcd_mb_peer net;            /* whose share (modbus_peer.c) */
     unsigned hint;               /* the slot of the last bank used */
     char peer[64];
     int dead;
@@ -82,6 +87,7 @@ static void conn_close(qmcd_mb_conn *c, const char *why)
     close(c->w.fd);
     c->w.fd = -1;
     c->dead = 1;
+    qmcd__modbus_net_conn_remove(mb, &c->net);
     if (c->prev)
         c->prev->next = c->next;
     else
@@ -135,6 +141,53 @@ static void queue(qmcd_mb_conn *c, const uint8_t *adu, size_t n)
     c->out_tail += n;
 }
 
+/*
+ * Answers one request PDU into resp (QMC_MODBUS_MAX_PDU bytes) with the
+ * client's bank.  A client without one is answered from mb->defaults
+ * unless the request writes; a write makes its bank, within the peer's
+ * share and modbus-max-sessions (else exception 06, server busy: spec
+ * section 7), and a write the handler refuses stores nothing, so the bank
+ * made for it goes again.  A write is told the integration memory its bank
+ * may hold (modbus_sessions.c), and what the bank holds after it is
+ * counted.  Returns the response length.
+ */
+static int answer(qmcd_mb_conn *c, uint8_t unit, const uint8_t *req, size_t n,
+                  const qmc_modbus_env *base, uint8_t *resp)
+{
+    qmcd_modbus *mb = c->mb;
+    int64_t now = qmcd_now_ms();
+    qmc_modbus_env env = *base; /* integration_bytes_max 0: reads start nothing */
+    const int writes = qmc_modbus_request_writes(req, n);
+    qmc_modbus_session *sess = qmcd__modbus_session_find(mb, &c->key, unit, now, &c->hint);
+    if (!writes)
+        return qmc_modbus_handle(sess ? sess : mb->defaults, &env, req, n, resp,
+                                 QMC_MODBUS_MAX_PDU);
+    if (sess) {
+        env.integration_bytes_max = qmcd__modbus_session_room(mb, c->hint);
+        int r = qmc_modbus_handle(sess, &env, req, n, resp, QMC_MODBUS_MAX_PDU);
+        qmcd__modbus_session_account(mb, c->hint);
+        return r;
+    }
+    int made = qmcd__modbus_session_make(mb, &c->key, &c->net, unit, now, &c->hint, &sess);
+    if (made != QMCD_MB_MADE) {
+        if (made == QMCD_MB_PEER_FULL)
+            atomic_fetch_add_explicit(&mb->ctr.sessions_refused_per_peer, 1,
+                                      memory_order_relaxed);
+        else
+            atomic_fetch_add_explicit(&mb->ctr.sessions_refused, 1, memory_order_relaxed);
+        resp[0] = (uint8_t)(req[0] | 0x80);
+        resp[1] = QMC_MODBUS_EX_SERVER_BUSY;
+        return 2;
+    }
+    env.integration_bytes_max = qmcd__modbus_session_room(mb, c->hint);
+    int r = qmc_modbus_handle(sess, &env, req, n, resp, QMC_MODBUS_MAX_PDU);
+    if (r <= 0 || (resp[0] & 0x80))
+        qmcd__modbus_session_drop(mb, c->hint);
+    else
+        qmcd__modbus_session_account(mb, c->hint);
+    return r;
+}
+
 /* Answers every complete frame in c->in while replies fit; keeps the
  * rest.  Closes the connection on a header no Modbus TCP client sends
  * (the stream cannot be resynchronised after it). */
@@ -167,17 +220,7 @@ static void parse(qmcd_mb_conn *c)
         qmc_modbus_env env;
         qmcd__modbus_env(mb, &env);
         uint8_t adu[ADU_MAX];
-        qmc_modbus_session *sess =
-            qmcd__modbus_session(mb, &c->key, p[6], qmcd_now_ms(), &c->hint);
-        int n;
-        if (!sess) {
-            /* Every bank is in use: exception 06, server busy (spec 7). */
-            adu[7] = (uint8_t)(p[7] | 0x80);
-            adu[8] = QMC_MODBUS_EX_SERVER_BUSY;
-            n = 2;
-        } else {
-            n = qmc_modbus_handle(sess, &env, p + 7, len - 1, adu + 7, QMC_MODBUS_MAX_PDU);
-        }
+        int n = answer(c, p[6], p + 7, len - 1, &env, adu + 7);
         if (n <= 0) { /* cannot happen: len - 1 is 1..253 */
             conn_close(c, "handler refused a PDU");
             return;
@@ -265,13 +308,26 @@ static void on_conn_event(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         rearm(c);
 }
 
-/* Closes an accepted socket we will not serve, and counts it. */
+/* Closes an accepted socket we will not serve, and counts it.  Logged at
+ * most once a second, with the count of the refusals not logged since, so
+ * a flood of sockets cannot flood the log. */
 static void refuse(qmcd_modbus *mb, int fd, const qmcd_listener *l, const char *peer,
                    const char *why)
 {
     close(fd);
     atomic_fetch_add_explicit(&mb->ctr.conns_refused, 1, memory_order_relaxed);
-    qmcd_info("modbus: %s: refused %s: %s", l->name, peer, why);
+    int64_t now = qmcd_now_ms();
+    if (mb->refusal_logged_ms && now - mb->refusal_logged_ms < 1000) {
+        mb->refusals_unlogged++;
+        return;
+    }
+    if (mb->refusals_unlogged)
+        qmcd_info("modbus: %s: refused %s: %s (and %llu other refusal(s) in the last "
+                  "second)", l->name, peer, why, (unsigned long long)mb->refusals_unlogged);
+    else
+        qmcd_info("modbus: %s: refused %s: %s", l->name, peer, why);
+    mb->refusal_logged_ms = now;
+    mb->refusals_unlogged = 0;
 }
 
 static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
@@ -300,6 +356,22 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             refuse(mb, fd, l, peer, "not in modbus-allow");
             continue;
         }
+        qmcd_mb_peer key, net;
+        qmcd__modbus_peer_key(&ss, &key);
+        qmcd__modbus_net_of(&key, &net);
+        /* The peer's cap first: the peer at fault is the one named. */
+        uint64_t cap = qmcd__modbus_share(srv->cfg.modbus_max_connections_per_peer,
+                                          srv->cfg.modbus_max_connections);
+        if (!mb->draining && qmcd__modbus_net_conns(mb, &net) >= cap) {
+            char why[128], name[64];
+            qmcd__modbus_net_name(&net, name, sizeof name);
+            snprintf(why, sizeof why, "modbus-max-connections-per-peer (%llu) reached for %s",
+                     (unsigned long long)cap, name);
+            atomic_fetch_add_explicit(&mb->ctr.conns_refused_per_peer, 1,
+                                      memory_order_relaxed);
+            refuse(mb, fd, l, peer, why);
+            continue;
+        }
         uint64_t open_now = atomic_load_explicit(&mb->ctr.conns_open, memory_order_relaxed);
         if (mb->draining || open_now >= srv->cfg.modbus_max_connections) {
             refuse(mb, fd, l, peer,
@@ -307,11 +379,13 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
             continue;
         }
         qmcd_mb_conn *c = calloc(1, sizeof *c);
-        if (!c) {
+        if (!c || qmcd__modbus_net_conn_add(mb, &net) != 0) {
+            free(c);
             refuse(mb, fd, l, peer, "out of memory");
             continue;
         }
-        qmcd__modbus_peer_key(&ss, &c->key);
+        c->key = key;
+        c->net = net;
         int one = 1;
         (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
         c->w.fd = fd;
@@ -320,6 +394,7 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         snprintf(c->peer, sizeof c->peer, "%s", peer);
         c->active_ms = qmcd_now_ms();
         if (qmcd_loop_add(srv, &c->w, EPOLLIN) != 0) {
+            qmcd__modbus_net_conn_remove(mb, &net);
             free(c);
             refuse(mb, fd, l, peer, "epoll_ctl failed");
             continue;
@@ -334,25 +409,32 @@ static void on_accept(qmcd_server *srv, qmcd_watch *w, uint32_t events)
     }
 }
 
-/* Would "HOST:PORT" bind a loopback address?  A name is resolved as
- * qmcd_listen_tcp resolves it (its first address), before anything is
- * bound. */
-static int binds_loopback(const char *hostport)
+/* Would "HOST:PORT" bind a loopback address?  1 or 0; a name is resolved
+ * as qmcd_listen_tcp resolves it (its first address), before anything is
+ * bound, and one that does not resolve is -1 with why (not "off
+ * loopback": nothing says where it would be). */
+static int binds_loopback(const char *hostport, char *why, size_t why_bytes)
 {
     int numeric = qmcd_modbus_host_loopback(hostport);
     if (numeric >= 0)
         return numeric;
     char host[256];
     const char *end = strrchr(hostport, ':');
-    if (!end || (size_t)(end - hostport) >= sizeof host)
-        return 0;
+    if (!end || (size_t)(end - hostport) >= sizeof host) {
+        snprintf(why, why_bytes, "modbus tcp:%s: want tcp:HOST:PORT", hostport);
+        return -1;
+    }
     memcpy(host, hostport, (size_t)(end - hostport));
     host[end - hostport] = '\0';
     struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM,
                              .ai_flags = AI_PASSIVE | AI_NUMERICSERV};
     struct addrinfo *res = NULL;
-    if (getaddrinfo(host, "0", &hints, &res) != 0)
-        return 0;
+    int gai = getaddrinfo(host, "0", &hints, &res);
+    if (gai != 0) {
+        snprintf(why, why_bytes, "modbus tcp:%s: host '%s' does not resolve (%s); not starting",
+                 hostport, host, gai_strerror(gai));
+        return -1;
+    }
     int loop = qmcd_modbus_is_loopback(res->ai_addr);
     freeaddrinfo(res);
     return loop;
@@ -365,7 +447,10 @@ int qmcd__modbus_tcp_open(qmcd_modbus *mb, const char *hostport, qmcd_listener *
     /* Modbus has no authentication: its security guide's answer is to
      * filter by address, so off loopback the operator must name who may
      * connect.  Checked before binding, so nothing is ever exposed. */
-    if (mb->n_allow == 0 && !binds_loopback(hostport)) {
+    int loop = binds_loopback(hostport, why, why_bytes);
+    if (loop < 0)
+        return -1;
+    if (mb->n_allow == 0 && !loop) {
         snprintf(why, why_bytes,
                  "modbus tcp:%s: listening off loopback needs modbus-allow = CIDR,... "
                  "(Modbus has no authentication); not starting", hostport);
@@ -417,6 +502,12 @@ void qmcd__modbus_tcp_tick(qmcd_modbus *mb, int64_t now_ms)
         } else if (now_ms - c->active_ms >= (int64_t)cfg->idle_timeout_ms) {
             conn_close(c, "idle");
         }
+    }
+    if (mb->refusals_unlogged && now_ms - mb->refusal_logged_ms >= 1000) {
+        qmcd_info("modbus: %llu more connection(s) refused in the last second",
+                  (unsigned long long)mb->refusals_unlogged);
+        mb->refusals_unlogged = 0;
+        mb->refusal_logged_ms = now_ms;
     }
     qmcd__modbus_sessions_expire(mb, now_ms, (int64_t)cfg->idle_timeout_ms);
 }

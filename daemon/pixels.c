@@ -75,13 +75,6 @@ static qmcd_wait tile_waiting(const qmcd_conn *c, const qmcd_producer *p)
     return qmcd_bulk_waiting(c, &((const tile *)p)->bulk);
 }
 
-/* A stream cannot end cleanly halfway: its connection is cut. */
-static int tile_shutdown(qmcd_conn *c, qmcd_producer *p)
-{
-    (void)c, (void)p;
-    return 1;
-}
-
 static void tile_free(tile *t)
 {
     t->srv->pixel_table_bytes -= t->table_bytes;
@@ -100,7 +93,7 @@ static const qmcd_producer_kind tile_kind = {
     .flags = QMCD_PRODUCER_BULK,
     .pump = tile_pump,
     .waiting = tile_waiting,
-    .shutdown = tile_shutdown,
+    .shutdown = qmcd_bulk_shutdown,
     .release = tile_release,
 };
 

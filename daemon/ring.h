@@ -1,7 +1,7 @@
 /*
  * ring.h - a client's shared-memory ring (SHM_ATTACH, PROTOCOL.md section
  * 10): mapped and handed out by ring.c, attached by shm.c, filled by the
- * producers that stream through it (points.c), freed by its connection.
+ * producers that stream through it (bulk.c), freed by its connection.
  */
 #ifndef QMCD_RING_H
 #define QMCD_RING_H

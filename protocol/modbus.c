@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "modbus_integrate.h"
 #include "modbus_pdu.h"
 #include "qmc/modbus.h"
 #include "qmc/seq.h"
@@ -28,6 +29,7 @@ struct qmc_modbus_session {
     int has_result;                            /* a request number was served */
     qmc_seq *seq;                              /* built for seq_spec, or NULL */
     qmc_seq_spec seq_spec;
+    qmc__mb_integ integ;                       /* 300..323, 400..495 (modbus_integrate.c) */
 };
 
 static const uint16_t hr_min[QMC_MODBUS_HOLDING_COUNT] = {
@@ -65,12 +67,6 @@ const char *qmc_modbus_status_name(int code)
     return "";
 }
 
-static void put_u64(uint16_t *r, uint64_t v)
-{
-    for (int i = 0; i < 4; i++)
-        r[i] = (uint16_t)(v >> (48 - 16 * i));
-}
-
 static uint64_t get_u64(const uint16_t *r)
 {
     uint64_t v = 0;
@@ -88,6 +84,7 @@ int qmc_modbus_session_new(qmc_modbus_session **out)
     s->hr[QMC_MODBUS_HR_KIND] = QMC_MODBUS_KIND_SOBOL;
     s->hr[QMC_MODBUS_HR_DIMS] = 2;
     s->result[1] = QMC_MODBUS_STATUS_NO_REQUEST;
+    qmc__mb_integ_init(&s->integ);
     *out = s;
     return 0;
 }
@@ -97,6 +94,7 @@ void qmc_modbus_session_free(qmc_modbus_session *s)
     if (!s)
         return;
     qmc_seq_free(s->seq);
+    qmc__mb_integ_close(&s->integ);
     free(s);
 }
 
@@ -113,6 +111,7 @@ static qmc_seq_spec spec_of(const uint16_t *hr)
         [QMC_MODBUS_SCRAMBLE_OWEN] = QMC_SCRAMBLE_OWEN,
         [QMC_MODBUS_SCRAMBLE_SHIFT] = QMC_SCRAMBLE_SHIFT,
         [QMC_MODBUS_SCRAMBLE_FAURE] = QMC_SCRAMBLE_FAURE,
+        [QMC_MODBUS_SCRAMBLE_FAST_OWEN] = QMC_SCRAMBLE_FAST_OWEN,
     };
     qmc_seq_spec spec;
     memset(&spec, 0, sizeof spec); /* flags 0, set_size 0: infinite kinds */
@@ -151,7 +150,7 @@ static int compute(qmc_modbus_session *s)
     }
     uint16_t block[QMC_MODBUS_RESULT_REGS] = {0};
     block[0] = s->hr[QMC_MODBUS_HR_REQUEST];
-    put_u64(&block[2], index);
+    qmc__mb_regs_u64(&block[2], index);
     if (status == QMC_MODBUS_STATUS_OK && qmc_seq_range_check(s->seq, index, 1, NULL, 0) != 0)
         status = QMC_MODBUS_STATUS_BAD_INDEX;
     if (status == QMC_MODBUS_STATUS_OK) {
@@ -182,7 +181,7 @@ static int compute(qmc_modbus_session *s)
     memcpy(s->result, block, sizeof block);
     s->has_result = 1;
     if (status == QMC_MODBUS_STATUS_OK && s->hr[QMC_MODBUS_HR_AUTO_ADVANCE] == 1)
-        put_u64(&s->hr[QMC_MODBUS_HR_INDEX_3], index + 1);
+        qmc__mb_regs_u64(&s->hr[QMC_MODBUS_HR_INDEX_3], index + 1);
     return 0;
 }
 
@@ -192,10 +191,14 @@ static int compute(qmc_modbus_session *s)
  * stored.  Writing register 10 with a new request number computes after
  * every value is stored; with the number already served the whole write is
  * acknowledged and changes nothing, so a retried request never skips a
- * point.
+ * point.  The integration block's registers (300..315, 320..323) are
+ * modbus_integrate.c's.
  */
-static int write_holding(qmc_modbus_session *s, unsigned addr, unsigned count, qmc__mb_rd *v)
+static int write_holding(qmc_modbus_session *s, const qmc_modbus_env *env, unsigned addr,
+                         unsigned count, qmc__mb_rd *v)
 {
+    if (addr >= QMC_MODBUS_HOLDING_COUNT && qmc__mb_integ_writable(addr))
+        return qmc__mb_integ_write(&s->integ, s->hr, env, addr, count, v);
     if (addr >= QMC_MODBUS_HOLDING_COUNT || count > QMC_MODBUS_HOLDING_COUNT - addr)
         return QMC_MODBUS_EX_ILLEGAL_ADDRESS;
     uint16_t fresh[QMC_MODBUS_HOLDING_COUNT];
@@ -248,21 +251,30 @@ static int read_blocks(const block *b, size_t n_blocks, unsigned addr, unsigned 
 static int read_regs(const qmc_modbus_session *s, const qmc_modbus_env *env, int input,
                      unsigned addr, unsigned count, qmc__mb_wr *w)
 {
+    /* The status block is rendered only for a read that starts in it. */
+    uint16_t ib[QMC_MODBUS_INTEG_COUNT] = {0};
+    if (addr >= QMC_MODBUS_INTEG_BASE && addr < QMC_MODBUS_INTEG_BASE + QMC_MODBUS_INTEG_COUNT)
+        qmc__mb_integ_render(&s->integ, s->hr, ib);
+    const block integ = {QMC_MODBUS_INTEG_BASE, QMC_MODBUS_INTEG_COUNT, ib};
     if (input) {
         uint16_t ctr[4 * 6];
         uint16_t *p = ctr;
-#define PUT_CTR(name, field)               \
-    put_u64(p, env ? env->field : 0);      \
+#define PUT_CTR(name, field)                    \
+    qmc__mb_regs_u64(p, env ? env->field : 0); \
     p += 4;
         QMC_MODBUS_COUNTER_MAP(PUT_CTR)
 #undef PUT_CTR
         const block b[] = {{0, QMC_MODBUS_RESULT_REGS, s->result},
-                           {QMC_MODBUS_COUNTERS_INPUT, (unsigned)(p - ctr), ctr}};
-        return read_blocks(b, 2, addr, count, w);
+                           {QMC_MODBUS_COUNTERS_INPUT, (unsigned)(p - ctr), ctr},
+                           integ};
+        return read_blocks(b, 3, addr, count, w);
     }
     const block b[] = {{0, QMC_MODBUS_HOLDING_COUNT, s->hr},
-                       {QMC_MODBUS_RESULT_HOLDING, QMC_MODBUS_RESULT_REGS, s->result}};
-    return read_blocks(b, 2, addr, count, w);
+                       {QMC_MODBUS_RESULT_HOLDING, QMC_MODBUS_RESULT_REGS, s->result},
+                       {QMC_MODBUS_SETUP_BASE, QMC_MODBUS_SETUP_COUNT, s->integ.setup},
+                       {QMC_MODBUS_VALUE_BASE, QMC_MODBUS_VALUE_COUNT, s->integ.value},
+                       integ};
+    return read_blocks(b, 5, addr, count, w);
 }
 
 /* FC03, FC04 (spec 6.3, 6.4): address, quantity 1..125. */
@@ -278,16 +290,17 @@ static int on_read(qmc_modbus_session *s, const qmc_modbus_env *env, uint8_t fc,
 }
 
 /* FC06 (spec 6.6): the response echoes the request. */
-static int on_write_single(qmc_modbus_session *s, const uint8_t *req, size_t n,
-                           qmc__mb_rd *r, qmc__mb_wr *w)
+static int on_write_single(qmc_modbus_session *s, const qmc_modbus_env *env,
+                           const uint8_t *req, size_t n, qmc__mb_rd *r, qmc__mb_wr *w)
 {
     unsigned addr = qmc__mb_u16(r);
     qmc__mb_rd value = *r;
     (void)qmc__mb_u16(r);
     if (!qmc__mb_rd_done(r))
         return QMC_MODBUS_EX_ILLEGAL_VALUE;
-    /* Past register 12 (the result block included: it is read-only): 02. */
-    int ex = write_holding(s, addr, 1, &value);
+    /* Outside the writable registers (the result and status blocks are
+     * read-only): 02. */
+    int ex = write_holding(s, env, addr, 1, &value);
     if (ex)
         return ex;
     qmc__mb_put_bytes(w, req, n);
@@ -295,12 +308,13 @@ static int on_write_single(qmc_modbus_session *s, const uint8_t *req, size_t n,
 }
 
 /* FC16 (spec 6.12): address, quantity 1..123, byte count = 2 * quantity. */
-static int on_write_multiple(qmc_modbus_session *s, qmc__mb_rd *r, qmc__mb_wr *w)
+static int on_write_multiple(qmc_modbus_session *s, const qmc_modbus_env *env, qmc__mb_rd *r,
+                             qmc__mb_wr *w)
 {
     unsigned addr = qmc__mb_u16(r), count = qmc__mb_u16(r), bytes = qmc__mb_u8(r);
     if (r->bad || count < 1 || count > 123 || bytes != 2 * count || r->len - r->off != bytes)
         return QMC_MODBUS_EX_ILLEGAL_VALUE;
-    int ex = write_holding(s, addr, count, r);
+    int ex = write_holding(s, env, addr, count, r);
     if (ex)
         return ex;
     qmc__mb_put_u8(w, QMC_MODBUS_FC_WRITE_MULTIPLE);
@@ -325,7 +339,7 @@ static int on_read_write(qmc_modbus_session *s, const qmc_modbus_env *env, qmc__
     int ex = read_regs(s, env, 0, raddr, rcount, &probe);
     if (ex)
         return ex;
-    if ((ex = write_holding(s, waddr, wcount, r)) != 0)
+    if ((ex = write_holding(s, env, waddr, wcount, r)) != 0)
         return ex;
     qmc__mb_put_u8(w, QMC_MODBUS_FC_READ_WRITE_MULTIPLE);
     qmc__mb_put_u8(w, (uint8_t)(2 * rcount));
@@ -347,10 +361,10 @@ int qmc_modbus_handle(qmc_modbus_session *s, const qmc_modbus_env *env, const ui
         ex = on_read(s, env, fc, &r, &w);
         break;
     case QMC_MODBUS_FC_WRITE_SINGLE:
-        ex = on_write_single(s, req, req_bytes, &r, &w);
+        ex = on_write_single(s, env, req, req_bytes, &r, &w);
         break;
     case QMC_MODBUS_FC_WRITE_MULTIPLE:
-        ex = on_write_multiple(s, &r, &w);
+        ex = on_write_multiple(s, env, &r, &w);
         break;
     case QMC_MODBUS_FC_READ_WRITE_MULTIPLE:
         ex = on_read_write(s, env, &r, &w);
@@ -373,4 +387,21 @@ int qmc_modbus_handle(qmc_modbus_session *s, const qmc_modbus_env *env, const ui
         return 2;
     }
     return (int)w.off;
+}
+
+int qmc_modbus_request_writes(const uint8_t *req, size_t req_bytes)
+{
+    if (req_bytes == 0)
+        return 0;
+    return req[0] == QMC_MODBUS_FC_WRITE_SINGLE || req[0] == QMC_MODBUS_FC_WRITE_MULTIPLE ||
+           req[0] == QMC_MODBUS_FC_READ_WRITE_MULTIPLE;
+}
+
+void qmc_modbus_session_usage(const qmc_modbus_session *s, qmc_modbus_usage *out)
+{
+    if (!s) {
+        memset(out, 0, sizeof *out);
+        return;
+    }
+    qmc__mb_integ_usage(&s->integ, out);
 }

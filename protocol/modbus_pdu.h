@@ -73,6 +73,14 @@ static inline void qmc__mb_put_u16(qmc__mb_wr *w, uint16_t v)
     qmc__mb_put_bytes(w, b, 2);
 }
 
+/* A u64 into four registers, high word first (the index, the counters,
+ * the integration block's counts). */
+static inline void qmc__mb_regs_u64(uint16_t *r, uint64_t v)
+{
+    for (int i = 0; i < 4; i++)
+        r[i] = (uint16_t)(v >> (48 - 16 * i));
+}
+
 /* FC17 and FC43/14 (modbus_ident.c): return 0 or an exception code. */
 int qmc__modbus_report_id(const qmc_modbus_env *env, qmc__mb_rd *r, qmc__mb_wr *w);
 int qmc__modbus_device_id(const qmc_modbus_env *env, qmc__mb_rd *r, qmc__mb_wr *w);

@@ -80,7 +80,8 @@ const char cli_seq_help[] =
     "  --seq KIND        sobol | halton | hammersley | random | stratified | lhs\n"
     "  --dims D          dimensions (default 2; sobol 1..21201, halton and\n"
     "                    hammersley 1..4096, the others 1..21201)\n"
-    "  --scramble S      none (default); sobol: shift | owen;\n"
+    "  --scramble S      none (default); sobol: shift | owen | fast-owen\n"
+    "                    (fast-owen: pbrt-v4's SobolSampler values);\n"
     "                    halton, hammersley: faure | owen\n"
     "  --seed X          scramble / random seed, decimal or 0x hex (default 0)\n"
     "  --shuffle         sobol only: nested-uniform shuffled index order\n"
@@ -114,7 +115,7 @@ int cli_seq_option(cli_seq_opts *o, const char *name, const char *arg)
     }
     if (strcmp(name, "scramble") == 0) {
         if (qmc_scramble_parse(arg, &o->spec.scramble) != 0) {
-            cli_error("--scramble: unknown scramble '%s' (none, shift, owen, faure)", arg);
+            cli_error("--scramble: unknown scramble '%s' (none, shift, owen, faure, fast-owen)", arg);
             return -1;
         }
         return 1;

@@ -136,7 +136,7 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
             o->have_seq = 1;
         } else if (strcmp(name, "scramble") == 0) {
             if (qmc_scramble_parse(arg, &o->spec.scramble) != 0)
-                return cli_error("--scramble: unknown scramble '%s' (none, shift, owen, faure)", arg), -1;
+                return cli_error("--scramble: unknown scramble '%s' (none, shift, owen, faure, fast-owen)", arg), -1;
             o->have_scramble = 1;
         } else if (strcmp(name, "shuffle") == 0) {
             o->spec.seq_flags |= QMC_SEQ_SHUFFLE;

@@ -16,13 +16,12 @@
  * Must not: print anything but the tile on stdout, or compute a value
  * itself (the core or the daemon does).
  */
-#include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
-#include "outfile.h"
+#include "emit.h"
 #include "qmc/pixel.h"
 
 static const char pixels_help[] =
@@ -206,21 +205,6 @@ static int check_required(const pixels_opts *o)
     return 0;
 }
 
-/* Little-endian on every host: swap when the host is big-endian. */
-static void to_little_endian(void *buf, size_t n_values, size_t bytes)
-{
-    const uint16_t probe = 1;
-    if (*(const uint8_t *)&probe == 1)
-        return;
-    uint8_t *b = buf;
-    for (size_t i = 0; i < n_values; i++, b += bytes)
-        for (size_t k = 0; k < bytes / 2; k++) {
-            uint8_t t = b[k];
-            b[k] = b[bytes - 1 - k];
-            b[bytes - 1 - k] = t;
-        }
-}
-
 /* Where the tile comes from: the sampler here, or the daemon. */
 typedef struct pixels_src {
     const qmc_pixels *px;         /* in-process */
@@ -228,32 +212,16 @@ typedef struct pixels_src {
     const pixels_opts *o;
 } pixels_src;
 
-typedef struct remote_sink {
-    FILE *f;
-    int failed;                   /* a write failed and said so */
-} remote_sink;
-
-static int remote_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
-                        size_t bytes)
+/* The tile, whole, to f (a cli_emit_fn). */
+static int emit(void *ctx, FILE *f)
 {
-    remote_sink *k = ctx;
-    (void)first, (void)points;
-    /* The wire carries exactly the little-endian bytes we write. */
-    if (cli_write_all(k->f, data, bytes, "pixels"))
-        return k->failed = -1;
-    return 0;
-}
-
-static int emit(const pixels_src *src, FILE *f)
-{
+    const pixels_src *src = ctx;
     const pixels_opts *o = src->o;
     if (src->client) {
-        remote_sink k = {f, 0};
+        cli_raw_sink k = {f, "pixels", 0};
         int err = qmc_client_pixels_stream(src->client, &o->spec, &o->tile, o->fmt,
-                                           remote_chunk, &k);
-        if (err && !k.failed)
-            return cli_remote_fail(src->client, err, "");
-        return err ? CLI_EXIT_FAIL : 0;
+                                           cli_raw_chunk, &k);
+        return cli_stream_done(src->client, err, k.failed);
     }
     const size_t value_bytes = qmc_format_bytes(o->fmt);
     const uint64_t row_bytes = (uint64_t)o->spec.dims * value_bytes;
@@ -279,31 +247,11 @@ static int emit(const pixels_src *src, FILE *f)
             break;
         }
         const uint64_t n = (uint64_t)piece.width * piece.height * piece.sample_count;
-        to_little_endian(buf, (size_t)n * o->spec.dims, value_bytes);
+        cli_to_little_endian(buf, (size_t)n * o->spec.dims, value_bytes);
         rc = cli_write_all(f, buf, (size_t)(n * row_bytes), "pixels") ? CLI_EXIT_FAIL : 0;
         done += n;
     }
     free(buf);
-    return rc;
-}
-
-/* To --out FILE by outfile.h's rules, or to stdout. */
-static int emit_out(const pixels_src *src)
-{
-    const char *path = src->o->out;
-    if (path) {
-        cli_outfile of;
-        if (cli_outfile_open(&of, path, "--out") != 0)
-            return CLI_EXIT_FAIL;
-        int rc = emit(src, of.f);
-        if (rc == 0)
-            return cli_outfile_commit(&of);
-        cli_outfile_abort(&of);
-        return rc;
-    }
-    int rc = emit(src, stdout);
-    if (fflush(stdout) != 0 && rc == 0)
-        rc = cli_error("writing pixels: %s", strerror(errno));
     return rc;
 }
 
@@ -358,12 +306,12 @@ int cli_cmd_pixels(int argc, char **argv)
         rc = cli_remote_connect(endpoint, &c);
         if (rc == 0) {
             pixels_src src = {px, c, &o};
-            rc = emit_out(&src);
+            rc = cli_emit_out(o.out, "pixels", emit, &src);
         }
         qmc_client_close(c);
     } else {
         pixels_src src = {px, NULL, &o};
-        rc = emit_out(&src);
+        rc = cli_emit_out(o.out, "pixels", emit, &src);
     }
     qmc_pixels_free(px);
     return rc;

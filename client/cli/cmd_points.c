@@ -14,14 +14,12 @@
  * connection lost halfway can leave part of a stream on stdout, and the
  * error line then says how many points got through.
  */
-#include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli.h"
-#include "outfile.h"
+#include "emit.h"
 
 static const char points_help[] =
     "usage: qmc points --seq KIND [--dims D] [--count N] [--start I]\n"
@@ -58,74 +56,57 @@ static int write_csv(FILE *f, const double *x, size_t n_points, uint32_t dims)
     return 0;
 }
 
-/* Little-endian on every host: swap when the host is big-endian. */
-static void to_little_endian(void *buf, size_t n_values, size_t bytes)
-{
-    const uint16_t probe = 1;
-    if (*(const uint8_t *)&probe == 1)
-        return;
-    uint8_t *b = buf;
-    for (size_t i = 0; i < n_values; i++, b += bytes)
-        for (size_t k = 0; k < bytes / 2; k++) {
-            uint8_t t = b[k];
-            b[k] = b[bytes - 1 - k];
-            b[bytes - 1 - k] = t;
-        }
-}
-
-/* Where points come from: a local sequence, or the daemon. */
+/* What to write and where the points come from: a local sequence, or
+ * the daemon. */
 typedef struct points_src {
     const qmc_seq *seq;           /* in-process, or NULL */
     qmc_client *client;           /* remote, or NULL */
     const qmc_seq_spec *spec;
+    uint64_t start, count;
+    int csv;                      /* CSV (from f64 values), else fmt raw */
+    qmc_format fmt;
 } points_src;
 
 typedef struct remote_sink {
-    FILE *f;
+    cli_raw_sink raw;             /* the file, and binary chunks as they come */
     int csv;
     uint32_t dims;
     double *values;               /* csv: the chunk decoded, host order */
-    int failed;                   /* a write failed and said so */
 } remote_sink;
 
 static int remote_chunk(void *ctx, uint64_t first, uint32_t points, const void *data,
                         size_t bytes)
 {
     remote_sink *k = ctx;
-    (void)first;
-    if (!k->csv) {
-        /* The wire carries exactly the little-endian bytes we write. */
-        if (cli_write_all(k->f, data, bytes, "points"))
-            return k->failed = -1;
-        return 0;
-    }
+    if (!k->csv)
+        return cli_raw_chunk(&k->raw, first, points, data, bytes);
     memcpy(k->values, data, bytes);
-    to_little_endian(k->values, bytes / sizeof(double), sizeof(double));
-    if (write_csv(k->f, k->values, points, k->dims))
-        return k->failed = -1;
+    cli_to_little_endian(k->values, bytes / sizeof(double), sizeof(double));
+    if (write_csv(k->raw.f, k->values, points, k->dims))
+        return k->raw.failed = -1;
     return 0;
 }
 
-static int emit_remote(const points_src *src, uint64_t start, uint64_t count, int csv,
-                       qmc_format fmt, FILE *f)
+static int emit_remote(const points_src *src, FILE *f)
 {
-    remote_sink k = {f, csv, src->spec->dims, NULL, 0};
-    if (csv && !(k.values = malloc(QMC_CLIENT_MAX_FRAME)))
+    remote_sink k = {{f, "points", 0}, src->csv, src->spec->dims, NULL};
+    if (src->csv && !(k.values = malloc(QMC_CLIENT_MAX_FRAME)))
         return cli_error("out of memory for a chunk of points");
-    int err = qmc_client_points_stream(src->client, src->spec, start, count, fmt,
-                                       remote_chunk, &k);
+    int err = qmc_client_points_stream(src->client, src->spec, src->start, src->count,
+                                       src->fmt, remote_chunk, &k);
     free(k.values);
-    if (err && !k.failed)
-        return cli_remote_fail(src->client, err, "");
-    return err ? CLI_EXIT_FAIL : 0;
+    return cli_stream_done(src->client, err, k.raw.failed);
 }
 
-static int emit(const points_src *src, uint64_t start, uint64_t count,
-                int csv, qmc_format fmt, FILE *f)
+/* The points, all of them, to f (a cli_emit_fn). */
+static int emit(void *ctx, FILE *f)
 {
+    const points_src *src = ctx;
     if (src->client)
-        return emit_remote(src, start, count, csv, fmt, f);
+        return emit_remote(src, f);
     const qmc_seq *seq = src->seq;
+    const uint64_t start = src->start, count = src->count;
+    const qmc_format fmt = src->fmt;
     const uint32_t dims = qmc_seq_get_spec(seq)->dims;
     const size_t value_bytes = qmc_format_bytes(fmt);
     size_t block = BLOCK_BYTES / (value_bytes * dims);
@@ -142,41 +123,15 @@ static int emit(const points_src *src, uint64_t start, uint64_t count,
             rc = cli_error("points: %s", qmc_strerror(err));
             break;
         }
-        if (csv) {
+        if (src->csv) {
             rc = write_csv(f, buf, n, dims) ? CLI_EXIT_FAIL : 0;
         } else {
-            to_little_endian(buf, n * dims, value_bytes);
+            cli_to_little_endian(buf, n * dims, value_bytes);
             rc = cli_write_all(f, buf, n * dims * value_bytes, "points") ? CLI_EXIT_FAIL : 0;
         }
         done += n;
     }
     free(buf);
-    return rc;
-}
-
-/* To --out FILE by outfile.h's rules: nothing replaced unless complete. */
-static int emit_to_file(const points_src *src, uint64_t start, uint64_t count,
-                        int csv, qmc_format fmt, const char *path)
-{
-    cli_outfile o;
-    if (cli_outfile_open(&o, path, "--out") != 0)
-        return CLI_EXIT_FAIL;
-    int rc = emit(src, start, count, csv, fmt, o.f);
-    if (rc == 0)
-        return cli_outfile_commit(&o);
-    cli_outfile_abort(&o);
-    return rc;
-}
-
-/* To --out FILE or stdout. */
-static int emit_out(const points_src *src, uint64_t start, uint64_t count, int csv,
-                    qmc_format fmt, const char *out)
-{
-    if (out)
-        return emit_to_file(src, start, count, csv, fmt, out);
-    int rc = emit(src, start, count, csv, fmt, stdout);
-    if (fflush(stdout) != 0 && rc == 0)
-        rc = cli_error("writing points: %s", strerror(errno));
     return rc;
 }
 
@@ -199,8 +154,8 @@ static int points_remote(const char *endpoint, const qmc_seq_spec *spec, uint64_
     qmc_client *c = NULL;
     if (cli_remote_connect(endpoint, &c))
         return CLI_EXIT_FAIL;
-    points_src src = {NULL, c, spec};
-    int rc = emit_out(&src, start, count, csv, csv ? QMC_FORMAT_F64 : fmt, out);
+    points_src src = {NULL, c, spec, start, count, csv, csv ? QMC_FORMAT_F64 : fmt};
+    int rc = cli_emit_out(out, "points", emit, &src);
     qmc_client_close(c);
     return rc;
 }
@@ -263,11 +218,11 @@ int cli_cmd_points(int argc, char **argv)
         return cli_error("points: %s", qmc_strerror(err));
     char why[256];
     int rc;
-    points_src src = {seq, NULL, &so.spec};
+    points_src src = {seq, NULL, &so.spec, start, count, csv, fmt};
     if (qmc_seq_range_check(seq, start, count, why, sizeof why) != 0)
         rc = cli_error("%s", why);
     else
-        rc = emit_out(&src, start, count, csv, fmt, out);
+        rc = cli_emit_out(out, "points", emit, &src);
     qmc_seq_free(seq);
     return rc;
 }

@@ -49,7 +49,7 @@ int cli_method_parse(const char *token, cli_method *m, char *why, size_t why_byt
         return -1;
     }
     if (n > 2 && qmc_scramble_parse(parts[2], &m->scramble) != 0) {
-        snprintf(why, why_bytes, "method '%s': unknown scramble '%s' (none, shift, owen, faure)",
+        snprintf(why, why_bytes, "method '%s': unknown scramble '%s' (none, shift, owen, faure, fast-owen)",
                  token, parts[2]);
         return -1;
     }

@@ -153,6 +153,13 @@ static ssize_t send_with_fd(int fd, const uint8_t *buf, size_t n, int pass_fd)
 
 int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd)
 {
+    /* An older server would take a newer field for a malformed frame and
+     * hang up: say so here instead. */
+    const unsigned needs = qmc_proto_msg_min_version(msg);
+    if (c->version && c->version < needs)
+        return qmc__client_fail(c, QMC_ENOTSUP, "%s: this request needs protocol version %u; "
+                                "the server speaks %u (a newer qmcd)",
+                                qmc_msg_type_name(msg->type), needs, (unsigned)c->version);
     size_t need = qmc_proto_encoded_size(msg);
     if (need == 0)
         return qmc__client_fail(c, QMC_EINVAL, "%s: a field is past its protocol limit",

@@ -11,7 +11,9 @@
  * register map, formats, word order, exceptions and status codes.
  *
  * A session is used by one thread at a time; distinct sessions are
- * independent.
+ * independent.  A bank may hold an integration session (qmc/session.h):
+ * its integrator runs inside the handler call that hands it values, up to
+ * the next batch it asks for, and never between calls.
  */
 #ifndef QMC_MODBUS_H
 #define QMC_MODBUS_H
@@ -79,7 +81,7 @@ enum {
 #define QMC_MODBUS_HOLDING_MAP(X)       \
     X(KIND, 0, 1, 3)                    \
     X(DIMS, 1, 1, 32)                   \
-    X(SCRAMBLE, 2, 0, 3)                \
+    X(SCRAMBLE, 2, 0, 4)                \
     X(SEED_HI, 3, 0, 0xFFFF)            \
     X(SEED_LO, 4, 0, 0xFFFF)            \
     X(FORMAT, 5, 0, 2)                  \
@@ -106,13 +108,114 @@ enum {
     QMC_MODBUS_COUNTERS_INPUT = 200
 };
 
+/*
+ * The integration block (protocol/MODBUS.md section 9): a device
+ * integrates a function it measures.  Holding registers 300..315 set up
+ * and start an integration session (qmc/session.h) in the bank; the
+ * device reads the point to measure and its request number from the
+ * status block (input registers 400..495, also holding 400..495 for
+ * FC23), and writes the request number and f at that point to holding
+ * 320..323 in one write.
+ *
+ * Setup registers: X(name, address, min, max), max 0xFFFF for "any".
+ * Floats (the tolerances) are IEEE binary32 in the bank's word order
+ * (register 12); integers are high word first.
+ */
+#define QMC_MODBUS_SETUP_MAP(X)         \
+    X(METHOD, 300, 1, 4)                \
+    X(DIMS, 301, 1, 32)                 \
+    X(SMOOTHNESS, 302, 0, 3)            \
+    X(SEED_HI, 303, 0, 0xFFFF)          \
+    X(SEED_LO, 304, 0, 0xFFFF)          \
+    X(N_HI, 305, 0, 0xFFFF)             \
+    X(N_LO, 306, 0, 0xFFFF)             \
+    X(REPS, 307, 0, 4096)               \
+    X(TOL_ABS_0, 308, 0, 0xFFFF)        \
+    X(TOL_ABS_1, 309, 0, 0xFFFF)        \
+    X(TOL_REL_0, 310, 0, 0xFFFF)        \
+    X(TOL_REL_1, 311, 0, 0xFFFF)        \
+    X(BUDGET_HI, 312, 0, 0xFFFF)        \
+    X(BUDGET_LO, 313, 0, 0xFFFF)        \
+    X(CONFIDENCE, 314, 1, 999)          \
+    X(START, 315, 0, 0xFFFF)
+
+enum {
+#define QMC__MB_SETUP_ENUM(name, addr, lo, hi) QMC_MODBUS_SETUP_##name = (addr),
+    QMC_MODBUS_SETUP_MAP(QMC__MB_SETUP_ENUM)
+#undef QMC__MB_SETUP_ENUM
+    QMC_MODBUS_SETUP_BASE = 300,
+    QMC_MODBUS_SETUP_COUNT = 16,
+    /* The value write: request number (u32, high word first) then f as
+     * binary32 in the bank's word order; always these 4 registers at once. */
+    QMC_MODBUS_VALUE_BASE = 320,
+    QMC_MODBUS_VALUE_COUNT = 4,
+    /* The status block: input registers 400.. (and holding 400.., read-only). */
+    QMC_MODBUS_INTEG_BASE = 400,
+    QMC_MODBUS_INTEG_COUNT = 96,
+    /* Defaults of a new bank's setup registers. */
+    QMC_MODBUS_DEFAULT_BUDGET = 1000000,
+    QMC_MODBUS_DEFAULT_CONFIDENCE = 950,
+    /* Points a session hands out per batch at most, and the cubature
+     * regions' memory it may use (both fixed, so that the registers alone
+     * decide every number; MODBUS.md says why). */
+    QMC_MODBUS_SESSION_BATCH = 256,
+    QMC_MODBUS_SESSION_REGION_BYTES = 1 << 20
+};
+
+/* Offsets in the status block.  u32 and u64 are high word first; f32 and
+ * f64 follow the word order (register 12: 1 reverses the words). */
+enum {
+    QMC_MODBUS_IB_STATUS = 0,      /* QMC_MODBUS_INTEG_STATUS_* */
+    QMC_MODBUS_IB_START = 1,       /* the start number the block is about */
+    QMC_MODBUS_IB_REQUEST = 2,     /* u32: the point's request number; 0: none */
+    QMC_MODBUS_IB_POINT = 4,       /* dims coordinates in the format of register 5 */
+    QMC_MODBUS_IB_EVALS = 68,      /* u64: values received */
+    QMC_MODBUS_IB_FLAGS = 72,      /* u32: QMC_FLAG_* (docs/FLAGS.md) */
+    QMC_MODBUS_IB_ESTIMATE_F32 = 74,
+    QMC_MODBUS_IB_BAR_F32 = 76,    /* half-width of the confidence interval */
+    QMC_MODBUS_IB_ESTIMATE_F64 = 78,
+    QMC_MODBUS_IB_BAR_F64 = 82,
+    QMC_MODBUS_IB_NONFINITE = 86,  /* u64: values received that were NaN or infinite */
+    QMC_MODBUS_IB_ERROR = 90,      /* -QMC_E* of a failed or refused session, else 0 */
+    QMC_MODBUS_IB_METHOD_USED = 91, /* qmc_method + 1 once known (auto's pick), else 0 */
+    QMC_MODBUS_IB_BYTES = 92       /* u64: memory held; refused for memory: needed */
+};
+
+/* The method register. */
+enum {
+    QMC_MODBUS_METHOD_MC = 1,
+    QMC_MODBUS_METHOD_QMC = 2,
+    QMC_MODBUS_METHOD_RQMC = 3,
+    QMC_MODBUS_METHOD_AUTO = 4
+};
+
+/* The status block's status register.  X(name, code, meaning).  From
+ * CONVERGED on, the session is over. */
+#define QMC_MODBUS_INTEG_STATUS_MAP(X)                                            \
+    X(NONE, 0, "no integration started, or it was closed")                        \
+    X(WAITING, 1, "running: waiting for f at the point shown")                    \
+    X(CONVERGED, 2, "done: the tolerance was met")                                \
+    X(COMPLETE, 3, "done: every point of the fixed n was evaluated")              \
+    X(BUDGET, 4, "done: the budget ran out before the tolerance was met")         \
+    X(CANNOT_TELL, 5, "done, but the error bar cannot be trusted (see the flags)") \
+    X(FAILED, 6, "the integrator stopped with an error (error register)")         \
+    X(BAD_SETUP, 7, "the setup registers do not make a session (error register)") \
+    X(NO_MEMORY, 8, "the session would hold more memory than the bank may (bytes register)")
+
+enum {
+#define QMC__MB_IST_ENUM(name, c, text) QMC_MODBUS_INTEG_##name = (c),
+    QMC_MODBUS_INTEG_STATUS_MAP(QMC__MB_IST_ENUM)
+#undef QMC__MB_IST_ENUM
+};
+
 /* Register values of the kind, scramble and format registers. */
 enum { QMC_MODBUS_KIND_SOBOL = 1, QMC_MODBUS_KIND_HALTON = 2, QMC_MODBUS_KIND_RANDOM = 3 };
 enum {
     QMC_MODBUS_SCRAMBLE_NONE = 0,
     QMC_MODBUS_SCRAMBLE_OWEN = 1,
     QMC_MODBUS_SCRAMBLE_SHIFT = 2,
-    QMC_MODBUS_SCRAMBLE_FAURE = 3
+    QMC_MODBUS_SCRAMBLE_FAURE = 3,
+    QMC_MODBUS_SCRAMBLE_FAST_OWEN = 4
 };
 enum { QMC_MODBUS_FORMAT_F32 = 0, QMC_MODBUS_FORMAT_U16 = 1, QMC_MODBUS_FORMAT_U32 = 2 };
 
@@ -132,6 +235,13 @@ typedef struct qmc_modbus_env {
 #undef QMC__MB_CTR_FIELD
     uint64_t sobol_table_hash;  /* qmc_sobol_table_hash() */
     const char *version;        /* "0.1.0"; NULL reads as "" */
+    /* The most bytes the bank's integration session may hold after this
+     * request (its qmc_session_memory_bytes and the values it collects):
+     * a start that needs more is refused (status NO_MEMORY), a batch that
+     * would grow it past this fails the session.  The transport computes
+     * it from its caps and what the other banks hold; 0 (and a NULL env)
+     * lets no session start. */
+    uint64_t integration_bytes_max;
 } qmc_modbus_env;
 
 typedef struct qmc_modbus_session qmc_modbus_session;
@@ -144,7 +254,8 @@ typedef struct qmc_modbus_session qmc_modbus_session;
  */
 QMC_MUST_CHECK int qmc_modbus_session_new(qmc_modbus_session **out);
 
-/* Frees a session and the sequence it caches; NULL is a no-op. */
+/* Frees a session, the sequence it caches and its integration session;
+ * NULL is a no-op. */
 void qmc_modbus_session_free(qmc_modbus_session *s);
 
 /*
@@ -159,9 +270,31 @@ QMC_MUST_CHECK int qmc_modbus_handle(qmc_modbus_session *s, const qmc_modbus_env
                                      const uint8_t *req, size_t req_bytes, uint8_t *resp,
                                      size_t resp_bytes);
 
+/*
+ * Whether the request PDU req[0 .. req_bytes) may change a session: 1 for
+ * the writes (FC06, FC16, FC23), 0 for everything else (FC03, FC04, FC17,
+ * FC43, and codes answered with exception 01).  qmc_modbus_handle never
+ * changes a session for a request this returns 0 for, nor for one it
+ * answers with an exception, so a transport may answer such requests from
+ * one shared session that is never written (the TCP transport does, for
+ * clients that have no bank of their own).
+ */
+int qmc_modbus_request_writes(const uint8_t *req, size_t req_bytes);
+
+/* What a bank's integration holds, for the transport's accounting. */
+typedef struct qmc_modbus_usage {
+    uint64_t integration_bytes;     /* held now (the session's bound and its values) */
+    uint64_t integrations_refused;  /* starts refused for memory, in the bank's life */
+    int integrating;                /* 1 while a session is open (not yet done) */
+} qmc_modbus_usage;
+
+/* Fills *out for s (zeros for NULL). */
+void qmc_modbus_session_usage(const qmc_modbus_session *s, qmc_modbus_usage *out);
+
 /* Names for logs and tests: "illegal data address", "" if unknown. */
 const char *qmc_modbus_exception_name(int code);
 const char *qmc_modbus_status_name(int code);
+const char *qmc_modbus_integ_status_name(int code);
 
 #ifdef __cplusplus
 }

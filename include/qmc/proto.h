@@ -68,6 +68,8 @@ extern "C" {
 /* Version 4 adds PIXELS (a tile of a pixel sampler, qmc/pixel.h),
  * answered by the chunk and END frames POINTS uses. */
 #define QMC_PROTO_VERSION_PIXELS 4u
+/* Version 4 also adds scramble 4, fast-owen, to POINTS and INTEGRATE. */
+#define QMC_PROTO_VERSION_FAST_OWEN 4u
 /* Version 5 adds integration sessions (SESSION_OPEN .. SESSION_CLOSE,
  * qmc/session.h): the client evaluates f at the points the server hands
  * out, the server keeps the estimate and the stopping rule. */
@@ -450,6 +452,11 @@ QMC_MUST_CHECK int qmc_proto_peek(const uint8_t *buf, size_t len,
  * QMC_EINVAL (a field past its limit, an unknown type). */
 QMC_MUST_CHECK int qmc_proto_encode(const qmc_msg *msg, uint8_t *buf,
                                     size_t cap);
+
+/* The oldest protocol version whose peers can decode msg (1 for anything
+ * version 1 had): PIXELS and a fast-owen scramble need 4, SHM_ATTACH 2.  A
+ * client compares it with the version HELLO_OK chose before sending. */
+unsigned qmc_proto_msg_min_version(const qmc_msg *msg);
 
 /* The frame length qmc_proto_encode would produce, or 0 if invalid. */
 size_t qmc_proto_encoded_size(const qmc_msg *msg);

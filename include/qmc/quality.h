@@ -1,7 +1,8 @@
 /*
  * qmc/quality.h - quality measures of point sets: L2-type discrepancies,
- * the star discrepancy D*, the Fourier power spectrum of 2D sets and the
- * t-value of a 2D projection of a base-2 digital net.
+ * the star discrepancy D*, the Fourier power spectrum of 2D sets, the
+ * t-value of a 2D projection of a base-2 digital net, and the power
+ * spectrum of a square image (a renderer's error image).
  *
  * Everything here is pure computation on caller-owned arrays: no function
  * allocates, prints or keeps state, so any number of threads may call them
@@ -15,6 +16,7 @@
 #include <stdint.h>
 
 #include "qmc/error.h"
+#include "qmc/pixel.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -128,6 +130,68 @@ QMC_MUST_CHECK int qmc_spectrum_accumulate(const double *points, size_t n,
  */
 QMC_MUST_CHECK int qmc_spectrum_finish(double *power, uint32_t kmax,
                                        uint32_t reps, double *radial);
+
+/*
+ * Power spectrum of a square image (side x side doubles, row-major: pixel
+ * (x, y) is image[y * side + x]), e.g. the error image of a pixel sampler
+ * (estimate - exact in every pixel): the periodogram
+ *   P(k) = |sum_{x,y} image[y][x] exp(-2 pi i (kx x + ky y) / side)|^2 / side^2
+ * over integer k in [-kmax, kmax]^2, kmax = qmc_image_spectrum_kmax(side)
+ * = side / 2.  White noise of variance s^2 has E[P(k)] = s^2 for k != 0;
+ * the sum of P over one period of k (for even side, leave out the row and
+ * column k = +kmax, which repeat -kmax) is the sum of image^2 (Parseval).
+ *
+ * power uses qmc_spectrum_accumulate's layout and conventions: the caller
+ * zeroes qmc_spectrum_side(kmax)^2 doubles, calls this once per image
+ * (adding that image's P), then qmc_spectrum_finish(power, kmax, reps,
+ * radial) for the mean periodogram and its radial average radial[0 ..
+ * kmax] (there radial[0] = P(0) = (sum of image)^2 / side^2).
+ * work is caller-owned scratch of qmc_image_spectrum_work_len(side)
+ * doubles (0 when side is 0 or too large).  Cost O(side^3); nothing is
+ * allocated.
+ *
+ * Errors: QMC_EINVAL (NULL pointer), QMC_EDOMAIN (side 0, a NaN or
+ * infinite pixel), QMC_ETOOBIG (side > QMC_IMAGE_SPECTRUM_MAX_SIDE).
+ * power is unchanged on error.
+ */
+#define QMC_IMAGE_SPECTRUM_MAX_SIDE 1024u
+
+uint32_t qmc_image_spectrum_kmax(uint32_t side);
+size_t qmc_image_spectrum_work_len(uint32_t side);
+
+QMC_MUST_CHECK int qmc_image_spectrum_accumulate(const double *image,
+                                                 uint32_t side, double *power,
+                                                 double *work);
+
+/*
+ * The low band of a radial spectrum: rings 1 .. qmc_image_spectrum_low_rings
+ * (kmax) = max(1, kmax / 8), the lowest eighth of the frequencies without
+ * the DC term (the image's mean, not a pattern in it).
+ * qmc_image_spectrum_low_band returns the sum of radial[b] over those
+ * rings, the measure issue 20 compares between samplers (each ring counts
+ * once, whatever its number of frequencies); 0 when radial is NULL or
+ * kmax is 0.
+ */
+uint32_t qmc_image_spectrum_low_rings(uint32_t kmax);
+double qmc_image_spectrum_low_band(const double *radial, uint32_t kmax);
+
+/*
+ * The error image of a pixel sampler on a disk.  Pixel (x0 + i, y0 + j),
+ * for i, j < side, estimates the area of the disk of the given radius
+ * centred at (1/2, 1/2) from its samples 0 .. samples - 1, each the point
+ * (value 0, value 1) / 2^32; image[j * side + i] is that estimate minus
+ * pi radius^2.  work is caller-owned scratch of samples * dims uint32_t
+ * (dims of p's spec).  Feed the image to qmc_image_spectrum_accumulate.
+ *
+ * Errors: QMC_EINVAL (NULL pointer, side or samples 0), QMC_EDOMAIN
+ * (radius not in (0, 1/2]), QMC_EDIMS (the spec has fewer than 2 dims),
+ * and qmc_pixels_tile_check's (QMC_ERANGE: the square or the samples
+ * leave the image or the spp).  Nothing is written on error.
+ */
+QMC_MUST_CHECK int qmc_pixel_disk_error(const qmc_pixels *p, uint32_t x0,
+                                        uint32_t y0, uint32_t side,
+                                        uint64_t samples, double radius,
+                                        uint32_t *work, double *image);
 
 /*
  * t-value of the 2D projection (dim_a, dim_b) of n = 2^m points given as

@@ -67,8 +67,9 @@ enum {
 typedef struct qmc_sampling_spec {
     qmc_sampler sampler;
     qmc_seq_kind seq;        /* qmc, rqmc: the sequence (sobol by default) */
-    qmc_scramble scramble;   /* rqmc: owen or shift (sobol), owen or faure
-                                (halton); qmc: none or a fixed scramble */
+    qmc_scramble scramble;   /* rqmc: owen, fast-owen or shift (sobol), owen
+                                or faure (halton); qmc: none or a fixed
+                                scramble */
     uint32_t seq_flags;      /* QMC_SEQ_SHUFFLE */
     uint64_t seed;
     uint64_t n;              /* points per replicate, >= 1 */

@@ -37,12 +37,16 @@ typedef enum qmc_seq_kind {
 #undef QMC__KIND_ENUM
 } qmc_seq_kind;
 
-/* Scrambles.  Which kinds take which is checked by qmc_seq_spec_check. */
-#define QMC_SCRAMBLE_MAP(X)  \
-    X(NONE,  0, "none")      \
-    X(SHIFT, 1, "shift")     \
-    X(OWEN,  2, "owen")      \
-    X(FAURE, 3, "faure")
+/* Scrambles.  Which kinds take which is checked by qmc_seq_spec_check;
+ * docs/SEQUENCES.md defines each.  fast-owen (sobol only) is owen's hash
+ * with pbrt-v4's per-dimension seeds: with a seed below 2^32 its values are
+ * pbrt-v4's SobolSampler with FastOwen randomization. */
+#define QMC_SCRAMBLE_MAP(X)          \
+    X(NONE,      0, "none")          \
+    X(SHIFT,     1, "shift")         \
+    X(OWEN,      2, "owen")          \
+    X(FAURE,     3, "faure")         \
+    X(FAST_OWEN, 4, "fast-owen")
 
 typedef enum qmc_scramble {
 #define QMC__SCR_ENUM(name, value, text) QMC_SCRAMBLE_##name = (value),

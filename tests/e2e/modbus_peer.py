@@ -123,6 +123,7 @@ def run_pymodbus(host, port):
              ("sobol", 8, "shift", 2, 4242, 2, 1, 123456),
              ("halton", 3, "faure", 3, 9, 1, 0, 31),
              ("halton", 32, "owen", 1, 0xDEADBEEF, 0, 1, 4294967295),
+             ("sobol", 7, "fast-owen", 4, 2024, 0, 0, 65535),
              ("random", 4, "none", 0, 5, 2, 0, 99)]
     req = 0
     for kind, dims, scr, scr_code, seed, fmt, order, index in cases:

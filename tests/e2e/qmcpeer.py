@@ -38,7 +38,7 @@ MSG = dict(HELLO=1, HELLO_OK=2, PING=3, PONG=4, POINTS=5, POINTS_CHUNK=6, END=7,
            SESSION_REPORT=30, SESSION_RESULT=31, SESSION_RESUME=32, SESSION_CLOSE=33)
 NAME = {v: k for k, v in MSG.items()}
 KIND = dict(sobol=1, halton=2, hammersley=3, random=4, stratified=5, lhs=6)
-SCRAMBLE = dict(none=0, shift=1, owen=2, faure=3)
+SCRAMBLE = {"none": 0, "shift": 1, "owen": 2, "faure": 3, "fast-owen": 4}
 FORMAT = dict(f64=(1, 8), f32=(2, 4), u32=(3, 4))
 METHODS = ["auto", "mc", "stratified", "lhs", "qmc", "rqmc", "midpoint", "trapezoid",
            "simpson", "gauss-legendre", "gauss-kronrod", "cubature", "clenshaw-curtis"]
@@ -1100,6 +1100,7 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
     for kw in (dict(kind="sobol", dims=32, count=20000, start=100),
                dict(kind="sobol", dims=5, scramble="owen", seed=9, count=30001, fmt="f32"),
                dict(kind="halton", dims=6, scramble="owen", seed=5, count=9999),
+               dict(kind="sobol", dims=21, scramble="fast-owen", seed=7, count=25003, fmt="u32"),
                dict(kind="random", dims=3, seed=5, count=40000, fmt="u32"),
                dict(kind="sobol", dims=2, count=1)):
         a, _ = inline.points(**kw)

@@ -70,6 +70,8 @@ sobol 3 none 0 0 0 1000 f64 0
 sobol 32 owen 7 0 100 20000 f64 0
 sobol 5 shift 3 0 12345 777 f64 0
 sobol 4 owen 9 0 0 3000 f64 1
+sobol 21 fast-owen 4294967296 0 77 5000 u32 0
+sobol 40 fast-owen 7 0 3 2000 f64 0
 sobol 21201 none 0 0 5 7 f64 0
 halton 4 faure 0 0 10 500 f64 0
 halton 6 owen 5 0 0 999 f32 0
@@ -82,6 +84,7 @@ EOF
 # 3. Refused POINTS: the library's one-line reason, the connection lives on.
 peer points_error "$U" sobol 30000 none 0 0 8 -1005
 peer points_error "$U" stratified 2 none 10 0 10 -1007
+peer points_error "$U" halton 2 fast-owen 0 0 10 -1004
 peer points_error "$U" sobol 2 none 0 4294967295 5 -1006
 peer points_error "$U" sobol 2 none 0 0 100000000 -1011
 

@@ -20,6 +20,8 @@ sobol-shift-f64     points --seq sobol --dims 40 --count 5000 --scramble shift -
 sobol-owen-f64      points --seq sobol --dims 40 --count 5000 --scramble owen --seed 9 --format f64
 sobol-owen-u32      points --seq sobol --dims 300 --count 300 --scramble owen --seed 3 --format u32
 sobol-owen-f32-shuf points --seq sobol --dims 5 --count 4096 --scramble owen --shuffle --seed 3 --format f32
+sobol-fowen-f64     points --seq sobol --dims 40 --count 5000 --scramble fast-owen --seed 9 --format f64
+sobol-fowen-u32-d5  points --seq sobol --dims 5 --count 4096 --start 3 --scramble fast-owen --seed 0x123456789 --format u32
 sobol-large-f64     points --seq sobol --dims 32 --count 20000 --start 4294900000 --format f64
 halton-none-f64     points --seq halton --dims 46 --count 20000 --start 1000000 --format f64
 halton-faure-csv    points --seq halton --dims 7 --count 300 --scramble faure

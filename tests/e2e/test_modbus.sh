@@ -85,7 +85,9 @@ check "rtu ...:rs485 on a pty: exit $rc, $(cat "$tmp/err")" $?
 
 # ---- 2. the daemon -----------------------------------------------------------
 # The same keys work in the config file: the transports and the allow list
-# come from it (two modbus-allow lines add up), the limits from flags.
+# come from it (two modbus-allow lines add up), the limits from flags.  All
+# of loopback is one peer (test_modbus_isolation.sh): its cap is raised
+# here so that the 200 connections of section 5 fit.
 cat > "$tmp/qmcd.conf" <<EOF
 modbus = tcp:127.0.0.1:0
 modbus = tcp:[::1]:0
@@ -94,7 +96,8 @@ modbus-allow = 127.0.0.1/32
 modbus-allow = ::1
 EOF
 "$QMCD" --foreground --config "$tmp/qmcd.conf" --listen "unix:$tmp/qmcd.sock" \
-    --modbus-frame-timeout-ms 3000 --ready-file "$tmp/ready" --log-level info \
+    --modbus-frame-timeout-ms 3000 --modbus-max-connections-per-peer 256 \
+    --ready-file "$tmp/ready" --log-level info \
     2> "$tmp/qmcd.log" &
 pid=$!
 wait_ready pid "$tmp/ready" "$tmp/qmcd.log"
@@ -177,6 +180,7 @@ for ep in "tcp:127.0.0.1:$P4" "tcp:::1:$P6" "rtu:$tmp/ttyc"; do
     point_case "$ep" $unit sobol 1 3 none 0 0 0 0 6 1
     point_case "$ep" $unit sobol 1 16 owen 1 123456 0 1 65535 2
     point_case "$ep" $unit halton 2 5 faure 3 99 2 0 4294967295 3
+    point_case "$ep" $unit sobol 1 6 fast-owen 4 4294967295 2 1 1000003 5
     point_case "$ep" $unit random 3 2 none 0 31337 1 0 77 4
 done
 # mbpoll as the RTU master too: FC16 then FC04, the same registers as TCP.
@@ -229,6 +233,7 @@ check "the stalled frame is logged" $?
 # ---- 6. the limits, on a second daemon ---------------------------------------------
 "$QMCD" --foreground --listen "unix:$tmp/lim.sock" --modbus tcp:127.0.0.1:0 \
     --modbus-max-sessions 2 --modbus-max-connections 3 --write-timeout-ms 200 \
+    --modbus-max-connections-per-peer 3 --modbus-max-sessions-per-peer 2 \
     --ready-file "$tmp/lim.ready" \
     2> "$tmp/lim.log" &
 lim_pid=$!

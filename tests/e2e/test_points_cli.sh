@@ -146,6 +146,7 @@ ra "sobol none" 1000 300 "1000 1001 1255 1299" --seq sobol --dims 6
 ra "sobol shift" 0 256 "0 1 128 255" --seq sobol --dims 6 --scramble shift --seed 3
 ra "sobol owen" 4090 200 "4090 4095 4096 4289" --seq sobol --dims 6 --scramble owen --seed 0x2a
 ra "sobol shuffle" 0 512 "0 7 300 511" --seq sobol --dims 4 --scramble owen --shuffle --seed 9
+ra "sobol fast-owen" 4090 200 "4090 4095 4096 4289" --seq sobol --dims 6 --scramble fast-owen --seed 0x2a
 ra "halton none" 500 200 "500 511 512 699" --seq halton --dims 8
 ra "halton faure" 0 300 "0 1 242 243 299" --seq halton --dims 8 --scramble faure --seed 4
 ra "halton owen" 0 300 "0 1 242 243 299" --seq halton --dims 8 --scramble owen --seed 5
@@ -187,6 +188,9 @@ expect_fail "sobol --dims 21202" "21202" --seq sobol --dims 21202
 expect_fail "halton --dims 5000" "5000" --seq halton --dims 5000
 expect_fail "sobol faure" "faure" --seq sobol --scramble faure
 expect_fail "random owen" "owen" --seq random --scramble owen
+expect_fail "halton fast-owen" "sobol only" --seq halton --scramble fast-owen
+expect_fail "hammersley fast-owen" "sobol only" --seq hammersley --scramble fast-owen --count 8
+expect_fail "unknown scramble lists fast-owen" "fast-owen" --seq sobol --scramble fastowen
 expect_fail "--count 0" "--count" --seq sobol --count 0
 expect_fail "--count abc" "abc" --seq sobol --count abc
 expect_fail "past 2^32" "4294967296" --seq sobol --start 4294967295 --count 2

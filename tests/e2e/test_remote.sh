@@ -71,6 +71,7 @@ done <<EOF
 --seq sobol --dims 3 --count 777 --start 1000 --scramble shift --seed 5
 --seq sobol --dims 7 --count 513 --scramble owen --seed 0x2a
 --seq sobol --dims 4 --count 300 --scramble owen --shuffle --seed 9
+--seq sobol --dims 9 --count 1003 --start 5 --scramble fast-owen --seed 0x123456789
 --seq halton --dims 6 --count 1000
 --seq halton --dims 3 --count 400 --start 17 --scramble faure
 --seq halton --dims 12 --count 500 --scramble owen --seed 3
@@ -82,6 +83,7 @@ EOF
 # Many chunks (8 MB of f64), f32 and u32, and --out.
 same_out "points f64 in many chunks" "$UNIX" points --seq sobol --dims 10 --count 100000 --format f64
 same_out "points f32" "$TCP" points --seq sobol --dims 3 --count 5000 --scramble owen --format f32
+same_out "points fast-owen u32" "$UNIX" points --seq sobol --dims 21 --count 20000 --scramble fast-owen --seed 7 --format u32
 same_out "points u32" "$UNIX" points --seq halton --dims 3 --count 5000 --format u32
 "$QMC" points --seq sobol --dims 4 --count 50000 --format f64 --out "$tmp/l.bin"
 "$QMC" points --seq sobol --dims 4 --count 50000 --format f64 --out "$tmp/r.bin" --connect "$TCP"
@@ -202,6 +204,7 @@ same_err "past the set" points --seq hammersley --set-size 100 --start 90 --coun
 same_err "past 2^32" points --seq sobol --start 4294967295 --count 2
 same_err "stratified not k^d" points --seq stratified --dims 2 --count 10
 same_err "bad scramble" points --seq lhs --scramble owen --count 4
+same_err "fast-owen is sobol only" points --seq halton --scramble fast-owen --count 4
 same_err "too many dims" points --seq halton --dims 5000 --count 4
 same_err "integrate over budget" integrate --integrand genz-gaussian --dims 6 \
     --method gauss-legendre --n 20 --max-evals 1000

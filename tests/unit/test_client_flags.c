@@ -21,33 +21,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
+#include "fake_server.h"
 #include "qmc/client.h"
 #include "qmc/proto.h"
 
 #define TIMEOUT_MS 5000
 #define RESULT_FLAGS (QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE)
-
-/* One frame from fd into buf (a client frame is small); 0 or -1. */
-static int read_frame(int fd, uint8_t *buf, size_t cap, qmc_msg *m)
-{
-    size_t len = 0;
-    for (;;) {
-        int n = qmc_proto_decode(buf, len, (uint32_t)cap, m);
-        if (n > 0)
-            return 0;
-        if (n != QMC_EAGAIN || len == cap)
-            return -1;
-        ssize_t got = read(fd, buf + len, cap - len);
-        if (got <= 0)
-            return -1;
-        len += (size_t)got;
-    }
-}
 
 static int send_frame(int fd, const qmc_msg *m, unsigned version)
 {
@@ -65,18 +46,10 @@ static int fake_server(int lfd, unsigned version, unsigned encode_for)
         return 1;
     static uint8_t buf[1 << 16];
     qmc_msg m, r;
-    if (read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_HELLO)
+    if (fake_read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_HELLO)
         return 2;
-    memset(&r, 0, sizeof r);
-    r.type = QMC_MSG_HELLO_OK;
-    r.request_id = m.request_id;
-    r.u.hello_ok.version = (uint16_t)version;
-    r.u.hello_ok.max_frame = 1u << 20;
-    r.u.hello_ok.max_inflight = 4;
-    r.u.hello_ok.max_points = 1000;
-    r.u.hello_ok.server = (qmc_str){"fake-qmcd", 9};
-    r.u.hello_ok.engine = (qmc_str){"test 1.0", 8};
-    if (send_frame(fd, &r, version) || read_frame(fd, buf, sizeof buf, &m) ||
+    r = fake_hello_ok(m.request_id, version, 1000);
+    if (send_frame(fd, &r, version) || fake_read_frame(fd, buf, sizeof buf, &m) ||
         m.type != QMC_MSG_INTEGRATE)
         return 3;
     memset(&r, 0, sizeof r);
@@ -107,30 +80,17 @@ static int fake_server(int lfd, unsigned version, unsigned encode_for)
  * and the flags it handed back. */
 static int run(unsigned version, unsigned encode_for, uint32_t *flags, char *why, size_t bytes)
 {
-    const char *tmpdir = getenv("TMPDIR");
-    char dir[80];
-    int w = snprintf(dir, sizeof dir, "%s/qmc-client-flags.XXXXXX", tmpdir ? tmpdir : "/tmp");
-    assert_true(w > 0 && (size_t)w < sizeof dir);
-    assert_non_null(mkdtemp(dir));
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    assert_true(strlen(dir) + sizeof "/s.sock" <= sizeof sa.sun_path);
-    memcpy(sa.sun_path, dir, strlen(dir));
-    memcpy(sa.sun_path + strlen(dir), "/s.sock", sizeof "/s.sock");
-    int lfd = socket(AF_UNIX, SOCK_STREAM, 0);
-    assert_true(lfd >= 0);
-    assert_int_equal(bind(lfd, (struct sockaddr *)&sa, sizeof sa), 0);
-    assert_int_equal(listen(lfd, 1), 0);
+    fake_sock fs;
+    fake_listen(&fs, "qmc-client-flags");
     pid_t child = fork();
     assert_true(child >= 0);
     if (child == 0) {
         alarm(10); /* never hang the suite on a client bug */
-        _exit(fake_server(lfd, version, encode_for));
+        _exit(fake_server(fs.lfd, version, encode_for));
     }
-    close(lfd);
-    char endpoint[sizeof sa.sun_path + 8];
-    snprintf(endpoint, sizeof endpoint, "unix:%s", sa.sun_path);
+    close(fs.lfd);
     qmc_client *c = NULL;
-    assert_int_equal(qmc_client_connect(endpoint, TIMEOUT_MS, &c), 0);
+    assert_int_equal(qmc_client_connect(fs.endpoint, TIMEOUT_MS, &c), 0);
     qmc_job_spec spec;
     qmc_job_spec_init(&spec);
     strcpy(spec.integrand, "genz-gaussian");
@@ -142,12 +102,8 @@ static int run(unsigned version, unsigned encode_for, uint32_t *flags, char *why
     snprintf(why, bytes, "%s", qmc_client_last_error(c));
     qmc_client_close(c);
     free(res);
-    int status = 0;
-    assert_int_equal(waitpid(child, &status, 0), child);
-    assert_true(WIFEXITED(status));
-    assert_int_equal(WEXITSTATUS(status), 0);
-    unlink(sa.sun_path);
-    rmdir(dir);
+    assert_int_equal(fake_wait(child), 0);
+    fake_remove(&fs);
     return rc;
 }
 

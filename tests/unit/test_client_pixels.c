@@ -6,7 +6,8 @@
  * pieces are checked to lie inside the tile and to follow each other);
  * the chunks land where qmc_pixels_fill would write them; a server ERROR
  * comes back with its code and text; a server that chose protocol
- * version 3 is never sent a PIXELS (QMC_ENOTSUP, the connection usable).
+ * version 3 is never sent a PIXELS nor a fast-owen POINTS (QMC_ENOTSUP, the
+ * connection usable).
  *
  * The fake answers a piece with values that name their place, v = x <<
  * 20 | y << 12 | sample << 4 | dim, so the test's oracle is that formula
@@ -23,11 +24,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
+#include "fake_server.h"
 #include "qmc/client.h"
 #include "qmc/proto.h"
 
@@ -43,22 +42,6 @@ static const qmc_pixel_tile TILE = {.x = 2, .y = 1, .width = 5, .height = 3,
 static uint32_t value_at(uint32_t x, uint32_t y, uint64_t s, uint32_t d)
 {
     return x << 20 | y << 12 | (uint32_t)s << 4 | d;
-}
-
-static int read_frame(int fd, uint8_t *buf, size_t cap, qmc_msg *m)
-{
-    size_t len = 0;
-    for (;;) {
-        int n = qmc_proto_decode(buf, len, (uint32_t)cap, m);
-        if (n > 0)
-            return 0;
-        if (n != QMC_EAGAIN || len == cap)
-            return -1;
-        ssize_t got = read(fd, buf + len, cap - len);
-        if (got <= 0)
-            return -1;
-        len += (size_t)got;
-    }
 }
 
 static int send_frame(int fd, const qmc_msg *m)
@@ -137,22 +120,16 @@ static int fake_server(int lfd, unsigned version, uint64_t max_points, unsigned 
         return 1;
     static uint8_t buf[1 << 16];
     qmc_msg m;
-    if (read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_HELLO ||
+    if (fake_read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_HELLO ||
         m.u.hello.version_max != QMC_PROTO_VERSION_MAX)
         return 2;
-    qmc_msg r = {.type = QMC_MSG_HELLO_OK, .request_id = m.request_id};
-    r.u.hello_ok.version = (uint16_t)version;
-    r.u.hello_ok.max_frame = 1u << 20;
-    r.u.hello_ok.max_inflight = 4;
-    r.u.hello_ok.max_points = max_points;
-    r.u.hello_ok.server = (qmc_str){"fake-qmcd", 9};
-    r.u.hello_ok.engine = (qmc_str){"test 1.0", 8};
+    qmc_msg r = fake_hello_ok(m.request_id, version, max_points);
     if (send_frame(fd, &r))
         return 3;
     uint64_t next = 0;
     *pieces = 0;
     while (version >= QMC_PROTO_VERSION_PIXELS && next < TILE_SAMPLES) {
-        if (read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PIXELS)
+        if (fake_read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PIXELS)
             return 4;
         int rc = answer_piece(fd, &m, &next);
         if (rc)
@@ -163,7 +140,7 @@ static int fake_server(int lfd, unsigned version, uint64_t max_points, unsigned 
         ++*pieces;
     }
     if (version >= QMC_PROTO_VERSION_PIXELS) {
-        if (read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PIXELS)
+        if (fake_read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PIXELS)
             return 6;
         static const char why[] = "tile 60,0,8,8 lies outside the 64 x 32 image";
         qmc_msg e = {.type = QMC_MSG_ERROR, .request_id = m.request_id};
@@ -172,7 +149,7 @@ static int fake_server(int lfd, unsigned version, uint64_t max_points, unsigned 
         if (send_frame(fd, &e))
             return 7;
     }
-    if (read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PING)
+    if (fake_read_frame(fd, buf, sizeof buf, &m) || m.type != QMC_MSG_PING)
         return 8;
     m.type = QMC_MSG_PONG;
     if (send_frame(fd, &m))
@@ -187,19 +164,8 @@ static int fake_server(int lfd, unsigned version, uint64_t max_points, unsigned 
  * tile took (the fake's exit status must be 0). */
 static unsigned run(unsigned version, uint64_t max_points)
 {
-    const char *tmpdir = getenv("TMPDIR");
-    char dir[80];
-    int w = snprintf(dir, sizeof dir, "%s/qmc-client-pixels.XXXXXX", tmpdir ? tmpdir : "/tmp");
-    assert_true(w > 0 && (size_t)w < sizeof dir);
-    assert_non_null(mkdtemp(dir));
-    struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    assert_true(strlen(dir) + sizeof "/s.sock" <= sizeof sa.sun_path);
-    memcpy(sa.sun_path, dir, strlen(dir));
-    memcpy(sa.sun_path + strlen(dir), "/s.sock", sizeof "/s.sock");
-    int lfd = socket(AF_UNIX, SOCK_STREAM, 0);
-    assert_true(lfd >= 0);
-    assert_int_equal(bind(lfd, (struct sockaddr *)&sa, sizeof sa), 0);
-    assert_int_equal(listen(lfd, 1), 0);
+    fake_sock fs;
+    fake_listen(&fs, "qmc-client-pixels");
     int pipefd[2];
     assert_int_equal(pipe(pipefd), 0);
     pid_t child = fork();
@@ -207,17 +173,15 @@ static unsigned run(unsigned version, uint64_t max_points)
     if (child == 0) {
         alarm(10); /* never hang the suite on a client bug */
         unsigned pieces = 0;
-        int rc = fake_server(lfd, version, max_points, &pieces);
+        int rc = fake_server(fs.lfd, version, max_points, &pieces);
         if (write(pipefd[1], &pieces, sizeof pieces) != sizeof pieces)
             rc = 99;
         _exit(rc);
     }
-    close(lfd);
+    close(fs.lfd);
     close(pipefd[1]);
-    char endpoint[sizeof sa.sun_path + 8];
-    snprintf(endpoint, sizeof endpoint, "unix:%s", sa.sun_path);
     qmc_client *c = NULL;
-    assert_int_equal(qmc_client_connect(endpoint, TIMEOUT_MS, &c), 0);
+    assert_int_equal(qmc_client_connect(fs.endpoint, TIMEOUT_MS, &c), 0);
     qmc_pixel_spec spec = {.sampler = QMC_PIXEL_ZSOBOL, .width = 64, .height = 32,
                            .spp = 16, .dims = DIMS};
     static uint32_t out[TILE_SAMPLES * DIMS];
@@ -225,6 +189,14 @@ static unsigned run(unsigned version, uint64_t max_points)
         assert_int_equal(qmc_client_pixels(c, &spec, &TILE, QMC_FORMAT_U32, out, sizeof out),
                          QMC_ENOTSUP);
         assert_non_null(strstr(qmc_client_last_error(c), "PIXELS needs 4"));
+        /* fast-owen came with version 4 too: refused before it is sent,
+         * which would make an older server hang up (the PING below). */
+        const qmc_seq_spec fast_owen = {.kind = QMC_SEQ_SOBOL, .dims = 2,
+                                        .scramble = QMC_SCRAMBLE_FAST_OWEN, .seed = 7};
+        double pts[4];
+        assert_int_equal(qmc_client_points(c, &fast_owen, 0, 2, QMC_FORMAT_F64, pts,
+                                           sizeof pts), QMC_ENOTSUP);
+        assert_non_null(strstr(qmc_client_last_error(c), "needs protocol version 4"));
     } else {
         /* Too small a buffer: refused before anything is sent. */
         assert_int_equal(qmc_client_pixels(c, &spec, &TILE, QMC_FORMAT_U32, out,
@@ -255,14 +227,11 @@ static unsigned run(unsigned version, uint64_t max_points)
     unsigned pieces = 0;
     assert_int_equal(read(pipefd[0], &pieces, sizeof pieces), (ssize_t)sizeof pieces);
     close(pipefd[0]);
-    int status = 0;
-    assert_int_equal(waitpid(child, &status, 0), child);
-    assert_true(WIFEXITED(status));
-    if (WEXITSTATUS(status) != 0)
+    const int status = fake_wait(child);
+    if (status != 0)
         fail_msg("max_points %llu: the fake server failed with %d",
-                 (unsigned long long)max_points, WEXITSTATUS(status));
-    unlink(sa.sun_path);
-    rmdir(dir);
+                 (unsigned long long)max_points, status);
+    fake_remove(&fs);
     return pieces;
 }
 

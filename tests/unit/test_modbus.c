@@ -234,7 +234,8 @@ static void test_scrambled_matches_core(void **state)
                  {1, 2, QMC_SEQ_SOBOL, QMC_SCRAMBLE_SHIFT},
                  {2, 3, QMC_SEQ_HALTON, QMC_SCRAMBLE_FAURE},
                  {2, 1, QMC_SEQ_HALTON, QMC_SCRAMBLE_OWEN},
-                 {3, 0, QMC_SEQ_RANDOM, QMC_SCRAMBLE_NONE}};
+                 {3, 0, QMC_SEQ_RANDOM, QMC_SCRAMBLE_NONE},
+                 {1, 4, QMC_SEQ_SOBOL, QMC_SCRAMBLE_FAST_OWEN}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         const uint16_t w[11] = {cases[c].kind, 32, cases[c].scr, 0x0001, 0x2345, 2, 0, 0,
                                 0, 1000, (uint16_t)(c + 1)};
@@ -340,6 +341,13 @@ static void test_status_codes(void **state)
     write_multi(s, 6, last, 5);
     r = read_regs(s, 0x04, 0, 6);
     assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_OK);
+    /* halton + fast-owen (a base-2 scramble): refused by the core too. */
+    write_single(s, QMC_MODBUS_HR_KIND, QMC_MODBUS_KIND_HALTON);
+    write_single(s, QMC_MODBUS_HR_SCRAMBLE, QMC_MODBUS_SCRAMBLE_FAST_OWEN);
+    write_single(s, QMC_MODBUS_HR_REQUEST, 4);
+    r = read_regs(s, 0x04, 0, 6);
+    assert_int_equal(reg(&r, 0), 4);
+    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_BAD_SPEC);
     assert_string_equal(qmc_modbus_status_name(QMC_MODBUS_STATUS_BAD_INDEX),
                         "index past the end of the sequence (2^32)");
     assert_string_equal(qmc_modbus_status_name(99), "");
@@ -498,7 +506,7 @@ static void test_ex03_illegal_value(void **state)
     assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_KIND, 9);
     assert_exception(&r, 0x06, 3);
-    r = write_single(s, QMC_MODBUS_HR_SCRAMBLE, 4);
+    r = write_single(s, QMC_MODBUS_HR_SCRAMBLE, 5);
     assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_FORMAT, 3);
     assert_exception(&r, 0x06, 3);
@@ -616,6 +624,36 @@ static void test_truncations(void **state)
     qmc_modbus_session_free(s);
 }
 
+/* qmc_modbus_request_writes names exactly the write functions of the
+ * spec that are served (FC06, FC16, FC23: sections 6.6, 6.12, 6.17), and
+ * every other code, run with a request that would write if it could, leaves
+ * a session's registers and result block as a fresh one has them (the TCP
+ * transport answers those from one shared bank). */
+static void test_request_writes(void **state)
+{
+    (void)state;
+    assert_int_equal(qmc_modbus_request_writes((const uint8_t *)"\x06", 0), 0);
+    qmc_modbus_session *s = fresh();
+    uint16_t want[13], got[13];
+    holding(s, want);
+    reply before = read_regs(s, 0x04, 0, 70);
+    for (unsigned fc = 0; fc < 256; fc++) {
+        /* Shaped as an FC16 of register 10 (a trigger) with its byte count. */
+        uint8_t q[8] = {(uint8_t)fc, 0, 10, 0, 1, 2, 0, 9};
+        int writes = fc == 0x06 || fc == 0x10 || fc == 0x17;
+        assert_int_equal(qmc_modbus_request_writes(q, sizeof q), writes);
+        if (writes)
+            continue;
+        for (size_t n = 1; n <= sizeof q; n++)
+            (void)call(s, q, n);
+        holding(s, got);
+        assert_memory_equal(got, want, sizeof want);
+        reply after = read_regs(s, 0x04, 0, 70);
+        assert_memory_equal(after.b, before.b, (size_t)before.n);
+    }
+    qmc_modbus_session_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -635,6 +673,7 @@ int main(void)
         cmocka_unit_test(test_ex04_server_failure),
         cmocka_unit_test(test_bad_calls),
         cmocka_unit_test(test_truncations),
+        cmocka_unit_test(test_request_writes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -2,7 +2,7 @@
  * test_modbus_spec.c - the Modbus settings' text (daemon/modbus_spec.c):
  * tcp and rtu specs with every field's bad value, the modbus-allow CIDR
  * list, and matching peers against it (prefixes off byte boundaries,
- * /0, IPv4-mapped IPv6 peers), and what counts as loopback.
+ * /0, IPv4-mapped IPv6 peers and entries), and what counts as loopback.
  *
  * The daemon's objects are not in a library, so the file is compiled in.
  */
@@ -140,6 +140,49 @@ static void test_allow(void **state)
     assert_int_equal(qmcd_modbus_allow_parse("10.0.0.1", list, &k, why, sizeof why), -1);
 }
 
+/* An entry written IPv4-mapped is the IPv4 network it maps (peers are
+ * matched mapped-as-IPv4, so kept as IPv6 it would match no one): the
+ * address ::ffff:a.b.c.d, ::ffff:a.b.0.0/112 = a.b.0.0/16, ::ffff:0:0/96 =
+ * all of IPv4.  Shorter than /96 it is refused with one line. */
+static void test_allow_mapped(void **state)
+{
+    (void)state;
+    char why[300];
+    qmcd_cidr list[QMCD_MODBUS_MAX_ALLOW];
+    unsigned n = 0;
+    assert_int_equal(qmcd_modbus_allow_parse("::ffff:127.0.0.3, ::ffff:10.1.0.0/112", list, &n,
+                                             why, sizeof why), 0);
+    assert_int_equal(n, 2);
+    struct sockaddr_storage a;
+    a = v4("127.0.0.3");
+    assert_true(qmcd_modbus_allow_match(list, n, &a));
+    a = v6("::ffff:127.0.0.3");
+    assert_true(qmcd_modbus_allow_match(list, n, &a));
+    a = v4("127.0.0.4");
+    assert_false(qmcd_modbus_allow_match(list, n, &a));
+    a = v4("10.1.255.255");
+    assert_true(qmcd_modbus_allow_match(list, n, &a));
+    a = v4("10.2.0.0");
+    assert_false(qmcd_modbus_allow_match(list, n, &a));
+    /* Not an IPv6 entry any more: the IPv6 address with the same low bits
+     * (::a01:1, not mapped) stays out. */
+    a = v6("::a01:1");
+    assert_false(qmcd_modbus_allow_match(list, n, &a));
+    unsigned m = 0;
+    assert_int_equal(qmcd_modbus_allow_parse("::ffff:0:0/96", list, &m, why, sizeof why), 0);
+    a = v4("203.0.113.5");
+    assert_true(qmcd_modbus_allow_match(list, m, &a));
+    a = v6("2001:db8::1");
+    assert_false(qmcd_modbus_allow_match(list, m, &a));
+    m = 0;
+    why[0] = '\0';
+    assert_int_equal(qmcd_modbus_allow_parse("::ffff:10.0.0.0/95", list, &m, why, sizeof why),
+                     -1);
+    assert_non_null(strstr(why, "'::ffff:10.0.0.0/95'"));
+    assert_non_null(strstr(why, "IPv4-mapped"));
+    assert_null(strchr(why, '\n'));
+}
+
 static void test_loopback(void **state)
 {
     (void)state;
@@ -190,6 +233,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_specs),
         cmocka_unit_test(test_allow),
+        cmocka_unit_test(test_allow_mapped),
         cmocka_unit_test(test_loopback),
         cmocka_unit_test(test_exposure),
     };

@@ -14,26 +14,11 @@
 #include <string.h>
 
 #include "pixel_impl.h"
+#include "pixel_test.h"
 #include "qmc/pixel.h"
 
 static const qmc_pixel_sampler all[] = {QMC_PIXEL_ZSOBOL, QMC_PIXEL_PADDED_SOBOL,
                                         QMC_PIXEL_SOBOL};
-
-static qmc_pixels *make(qmc_pixel_sampler s, uint32_t w, uint32_t h, uint64_t spp,
-                        uint32_t seed, uint32_t frame, uint32_t dims)
-{
-    qmc_pixel_spec spec = {.sampler = s, .width = w, .height = h, .spp = spp,
-                           .seed = seed, .frame = frame, .dims = dims};
-    char why[256] = "";
-    int err = qmc_pixel_spec_check(&spec, why, sizeof why);
-    if (err)
-        print_error("%s: %s\n", qmc_pixel_sampler_name(s), why);
-    assert_int_equal(err, 0);
-    qmc_pixels *p = NULL;
-    assert_int_equal(qmc_pixels_new(&spec, &p), 0);
-    assert_non_null(p);
-    return p;
-}
 
 static uint32_t at(const qmc_pixels *p, uint32_t x, uint32_t y, uint64_t i, uint32_t d)
 {
@@ -101,7 +86,7 @@ static void test_fill_equals_at_small(void **state)
     for (size_t s = 0; s < 3; s++)
         for (size_t j = 0; j < sizeof dims / sizeof dims[0]; j++)
             for (size_t q = 0; q < sizeof spps / sizeof spps[0]; q++) {
-                qmc_pixels *p = make(all[s], 7, 5, spps[q], (uint32_t)(q * 977 + j), 0, dims[j]);
+                qmc_pixels *p = pixel_make(all[s], 7, 5, spps[q], (uint32_t)(q * 977 + j), 0, dims[j]);
                 check_tile(p, tile(0, 0, 7, 5, 0, spps[q]));
                 qmc_pixels_free(p);
             }
@@ -113,7 +98,7 @@ static void test_fill_equals_at_edges(void **state)
     (void)state;
     for (size_t s = 0; s < 3; s++)
         for (uint32_t frame = 0; frame < 3; frame++) {
-            qmc_pixels *p = make(all[s], 100, 37, 256, 12345 + frame, frame * 7919, 9);
+            qmc_pixels *p = pixel_make(all[s], 100, 37, 256, 12345 + frame, frame * 7919, 9);
             check_tile(p, tile(96, 0, 4, 3, 0, 256));     /* right edge */
             check_tile(p, tile(0, 34, 5, 3, 100, 37));    /* bottom edge */
             check_tile(p, tile(99, 36, 1, 1, 255, 1));    /* last pixel, last sample */
@@ -131,19 +116,19 @@ static void test_fill_equals_at_blocks(void **state)
     for (size_t s = 0; s < 3; s++)
         for (size_t j = 0; j < sizeof dims / sizeof dims[0]; j++) {
             uint64_t spp = dims[j] > 100 ? 8 : 4096;
-            qmc_pixels *p = make(all[s], 64, 64, spp, 99, 1, dims[j]);
+            qmc_pixels *p = pixel_make(all[s], 64, 64, spp, 99, 1, dims[j]);
             check_tile(p, tile(60, 61, 2, 2, spp > 8 ? 1000 : 3, spp > 8 ? 3000 : 5));
             qmc_pixels_free(p);
         }
     /* One value per sample: the longest blocks, and zsobol's odd log2 spp
      * has a tree node per 2 samples at the bottom. */
     for (size_t s = 0; s < 3; s++) {
-        qmc_pixels *p = make(all[s], 3, 3, 1u << 13, 5, 2, 1);
+        qmc_pixels *p = pixel_make(all[s], 3, 3, 1u << 13, 5, 2, 1);
         check_tile(p, tile(1, 1, 2, 1, 0, 1u << 13));
         qmc_pixels_free(p);
     }
     /* padded-sobol's spp need not be a power of two (cycle walking). */
-    qmc_pixels *p = make(QMC_PIXEL_PADDED_SOBOL, 33, 9, 1000, 5, 0, 6);
+    qmc_pixels *p = pixel_make(QMC_PIXEL_PADDED_SOBOL, 33, 9, 1000, 5, 0, 6);
     check_tile(p, tile(30, 4, 3, 5, 0, 1000));
     check_tile(p, tile(0, 0, 2, 2, 999, 1));
     qmc_pixels_free(p);
@@ -155,39 +140,39 @@ static void test_fill_equals_at_huge(void **state)
     (void)state;
     const uint32_t big = 4294967295u;
     /* zsobol: a 2^32-wide image leaves no bits for samples beyond 1. */
-    qmc_pixels *p = make(QMC_PIXEL_ZSOBOL, big, 3, 1, 7, 0, 4);
+    qmc_pixels *p = pixel_make(QMC_PIXEL_ZSOBOL, big, 3, 1, 7, 0, 4);
     check_tile(p, tile(big - 3, 0, 3, 3, 0, 1));
     qmc_pixels_free(p);
-    p = make(QMC_PIXEL_ZSOBOL, 70000, 3, 1u << 20, 7, 2, 5);
+    p = pixel_make(QMC_PIXEL_ZSOBOL, 70000, 3, 1u << 20, 7, 2, 5);
     check_tile(p, tile(69998, 1, 2, 2, (1u << 20) - 40, 40));
     qmc_pixels_free(p);
     /* zsobol with a 1x1 image: 2^63 samples, the index is all sample. */
-    p = make(QMC_PIXEL_ZSOBOL, 1, 1, 1ull << 63, 3, 0, 3);
+    p = pixel_make(QMC_PIXEL_ZSOBOL, 1, 1, 1ull << 63, 3, 0, 3);
     check_tile(p, tile(0, 0, 1, 1, (1ull << 63) - 100, 100));
     check_tile(p, tile(0, 0, 1, 1, 0xfffffffeull, 5));
     qmc_pixels_free(p);
     /* zsobol's fast path at its edge: sample parts of 32 and 31 bits. */
-    p = make(QMC_PIXEL_ZSOBOL, 2, 2, 1ull << 32, 9, 3, 5);
+    p = pixel_make(QMC_PIXEL_ZSOBOL, 2, 2, 1ull << 32, 9, 3, 5);
     check_tile(p, tile(0, 1, 2, 1, (1ull << 32) - 37, 37));
     check_tile(p, tile(1, 0, 1, 1, (1ull << 31) - 9, 20));
     qmc_pixels_free(p);
-    p = make(QMC_PIXEL_ZSOBOL, 3, 2, 1ull << 31, 9, 0, 2);
+    p = pixel_make(QMC_PIXEL_ZSOBOL, 3, 2, 1ull << 31, 9, 0, 2);
     check_tile(p, tile(2, 1, 1, 1, (1ull << 31) - 45, 45));
     qmc_pixels_free(p);
     /* padded-sobol: spp 2^32, the largest its shuffle takes. */
-    p = make(QMC_PIXEL_PADDED_SOBOL, 3, big, 1ull << 32, 11, 0, 4);
+    p = pixel_make(QMC_PIXEL_PADDED_SOBOL, 3, big, 1ull << 32, 11, 0, 4);
     check_tile(p, tile(0, big - 2, 3, 2, (1ull << 32) - 20, 20));
     qmc_pixels_free(p);
     /* sobol: 64-bit indices past 2^32 and 2^52 (pbrt's 52 columns). */
-    p = make(QMC_PIXEL_SOBOL, 3, 70000, 1, 13, 0, 6);
+    p = pixel_make(QMC_PIXEL_SOBOL, 3, 70000, 1, 13, 0, 6);
     assert_int_equal(qmc_pixels_sample_end(p), 1ull << (64 - 2 * 17));
     check_tile(p, tile(0, 69990, 3, 10, (1ull << 30) - 7, 7));
     qmc_pixels_free(p);
-    p = make(QMC_PIXEL_SOBOL, 1, 1, 1, 13, 1, 21201);
+    p = pixel_make(QMC_PIXEL_SOBOL, 1, 1, 1, 13, 1, 21201);
     assert_int_equal(qmc_pixels_sample_end(p), UINT64_MAX);
     check_tile(p, tile(0, 0, 1, 1, (1ull << 60) + 12345, 2));
     qmc_pixels_free(p);
-    p = make(QMC_PIXEL_SOBOL, big, big, 1, 13, 0, 3);
+    p = pixel_make(QMC_PIXEL_SOBOL, big, big, 1, 13, 0, 3);
     assert_int_equal(qmc_pixels_sample_end(p), 1);
     check_tile(p, tile(big - 2, big - 2, 2, 2, 0, 1));
     qmc_pixels_free(p);
@@ -207,7 +192,7 @@ static void test_instruction_sets_agree(void **state)
         for (size_t s = 0; s < 3; s++)
             for (size_t j = 0; j < sizeof dims / sizeof dims[0]; j++) {
                 const uint64_t spp = all[s] == QMC_PIXEL_PADDED_SOBOL && j % 2 ? 24 : 32;
-                qmc_pixels *p = make(all[s], 20, 12, spp, 77, (uint32_t)j % 2, dims[j]);
+                qmc_pixels *p = pixel_make(all[s], 20, 12, spp, 77, (uint32_t)j % 2, dims[j]);
                 p->isa = isa;
                 check_tile(p, tile(17, 9, 3, 3, 5, spp - 5));
                 qmc_pixels_free(p);
@@ -255,8 +240,8 @@ static void test_odd_dims_and_prefixes(void **state)
 {
     (void)state;
     for (size_t s = 0; s < 3; s++) {
-        qmc_pixels *a = make(all[s], 16, 16, 16, 4, 0, 5);
-        qmc_pixels *b = make(all[s], 16, 16, 16, 4, 0, 12);
+        qmc_pixels *a = pixel_make(all[s], 16, 16, 16, 4, 0, 5);
+        qmc_pixels *b = pixel_make(all[s], 16, 16, 16, 4, 0, 12);
         for (uint32_t y = 0; y < 16; y += 5)
             for (uint32_t x = 0; x < 16; x += 3)
                 for (uint64_t i = 0; i < 16; i++)
@@ -311,13 +296,13 @@ static void test_spec_limits(void **state)
     expect_spec(QMC_PIXEL_SOBOL, 70000, 2, 1ull << 31, 2, QMC_ECOUNT, "spp 2147483648",
                 "1073741824");
     /* Accepted edges. */
-    qmc_pixels *p = make(QMC_PIXEL_ZSOBOL, 1u << 20, 5, 1u << 24, 1, 0, 4294967295u);
+    qmc_pixels *p = pixel_make(QMC_PIXEL_ZSOBOL, 1u << 20, 5, 1u << 24, 1, 0, 4294967295u);
     assert_int_equal(qmc_pixels_sample_end(p), 1u << 24);
     uint32_t v = 0;
     /* The largest dimension: pbrt's int dimension + 2 wraps to 0 mod 2^32. */
     assert_int_equal(qmc_pixels_at(p, (1u << 20) - 1, 4, (1u << 24) - 1, 4294967294u, &v), 0);
     qmc_pixels_free(p);
-    p = make(QMC_PIXEL_SOBOL, 8, 8, 4, 0, 0, 21201);
+    p = pixel_make(QMC_PIXEL_SOBOL, 8, 8, 4, 0, 0, 21201);
     assert_int_equal(qmc_pixels_at(p, 7, 7, 1000, 21200, &v), 0);
     qmc_pixels_free(p);
 }
@@ -343,7 +328,7 @@ static void expect_tile(const qmc_pixels *p, qmc_pixel_tile t, int code, const c
 static void test_tile_limits(void **state)
 {
     (void)state;
-    qmc_pixels *p = make(QMC_PIXEL_ZSOBOL, 64, 48, 256, 0, 0, 4);
+    qmc_pixels *p = pixel_make(QMC_PIXEL_ZSOBOL, 64, 48, 256, 0, 0, 4);
     /* Past spp: refused, never another pixel's or an earlier sample. */
     expect_tile(p, tile(0, 0, 1, 1, 300, 1), QMC_ERANGE, "sample 300 is past spp 256",
                 "ask for a larger spp (512 covers it)");
@@ -363,19 +348,19 @@ static void test_tile_limits(void **state)
     assert_int_equal(qmc_pixels_fill(p, &ok, (qmc_format)0, &v), QMC_EFORMAT);
     qmc_pixels_free(p);
     /* padded-sobol names the smallest spp that covers the sample. */
-    p = make(QMC_PIXEL_PADDED_SOBOL, 8, 8, 100, 0, 0, 2);
+    p = pixel_make(QMC_PIXEL_PADDED_SOBOL, 8, 8, 100, 0, 0, 2);
     expect_tile(p, tile(1, 1, 1, 1, 90, 20), QMC_ERANGE, "sample 109 is past spp 100",
                 "at least 110");
     qmc_pixels_free(p);
     /* sobol's end is its index space, not spp. */
-    p = make(QMC_PIXEL_SOBOL, 70000, 70000, 4, 0, 0, 2);
+    p = pixel_make(QMC_PIXEL_SOBOL, 70000, 70000, 4, 0, 0, 2);
     assert_int_equal(qmc_pixels_sample_end(p), 1u << 30);
     expect_tile(p, tile(0, 0, 1, 1, 1u << 30, 1), QMC_ERANGE, "sample 1073741824",
                 "index space");
     check_tile(p, tile(69999, 69999, 1, 1, (1u << 30) - 2, 2));
     qmc_pixels_free(p);
     /* Value counts that overflow 64 bits (or f64 bytes) are refused. */
-    p = make(QMC_PIXEL_ZSOBOL, 65536, 65536, 1ull << 32, 0, 0, 64);
+    p = pixel_make(QMC_PIXEL_ZSOBOL, 65536, 65536, 1ull << 32, 0, 0, 64);
     expect_tile(p, tile(0, 0, 65536, 65536, 0, 1ull << 32), QMC_ERANGE, "too many values",
                 "split it");
     qmc_pixels_free(p);

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pixel_test.h"
 #include "qmc/pixel.h"
 
 #define VECTORS "tests/vectors/pixels_oracle.txt"
@@ -26,34 +27,23 @@
 static void test_oracle_vectors(void **state)
 {
     (void)state;
-    FILE *f = fopen(VECTORS, "r");
-    if (!f)
-        print_error("cannot open %s (run from the repository root)\n", VECTORS);
-    assert_non_null(f);
+    FILE *f = pixel_vectors_open(VECTORS);
     char line[512];
     unsigned n = 0, bad = 0, framed = 0, per[4] = {0};
-    while (fgets(line, sizeof line, f)) {
-        if (line[0] == '#' || line[0] == '\n')
-            continue;
+    while (pixel_vectors_next(f, line, sizeof line)) {
         char name[32];
         unsigned long long spp, sample;
         unsigned w, h, seed, frame, x, y, dim, want;
         assert_int_equal(sscanf(line, "%31s %llu %u %u %u %u %u %u %llu %u %u", name, &spp, &w,
                                 &h, &seed, &frame, &x, &y, &sample, &dim, &want),
                          11);
-        qmc_pixel_spec spec = {.width = w, .height = h, .spp = spp, .seed = seed,
-                               .frame = frame, .dims = dim + 1};
-        assert_int_equal(qmc_pixel_sampler_parse(name, &spec.sampler), 0);
-        qmc_pixels *p = NULL;
-        assert_int_equal(qmc_pixels_new(&spec, &p), 0);
+        qmc_pixel_sampler s;
+        assert_int_equal(qmc_pixel_sampler_parse(name, &s), 0);
+        qmc_pixels *p = pixel_make(s, w, h, spp, seed, frame, dim + 1);
         uint32_t have = 0;
         assert_int_equal(qmc_pixels_at(p, x, y, sample, dim, &have), 0);
         /* And through a one-pixel fill: the last value of its row. */
-        qmc_pixel_tile t = {.x = x, .y = y, .width = 1, .height = 1, .sample_start = sample,
-                            .sample_count = 1};
-        uint32_t *row = malloc((dim + 1) * sizeof *row);
-        assert_non_null(row);
-        assert_int_equal(qmc_pixels_fill(p, &t, QMC_FORMAT_U32, row), 0);
+        uint32_t *row = pixel_fill_u32(p, x, y, 1, 1, sample, 1);
         if (have != want || row[dim] != want) {
             if (bad < 10)
                 print_error("%s: at %u, fill %u, oracle %u\n", strtok(line, "\n"), have,
@@ -62,7 +52,7 @@ static void test_oracle_vectors(void **state)
         }
         free(row);
         qmc_pixels_free(p);
-        per[spec.sampler]++;
+        per[s]++;
         framed += frame != 0;
         n++;
     }

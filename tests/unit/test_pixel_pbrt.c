@@ -18,39 +18,20 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pixel_test.h"
 #include "qmc/pixel.h"
 #include "sobol_wide.h"
 
 #define VECTORS "tests/vectors/pixels_pbrt.txt"
 
-static qmc_pixels *make(qmc_pixel_sampler s, uint64_t spp, uint32_t w, uint32_t h,
-                        uint32_t seed, uint32_t dims)
-{
-    qmc_pixel_spec spec = {.sampler = s, .width = w, .height = h, .spp = spp,
-                           .seed = seed, .frame = 0, .dims = dims};
-    char why[256];
-    int err = qmc_pixel_spec_check(&spec, why, sizeof why);
-    if (err)
-        print_error("spec refused: %s\n", why);
-    assert_int_equal(err, 0);
-    qmc_pixels *p = NULL;
-    assert_int_equal(qmc_pixels_new(&spec, &p), 0);
-    return p;
-}
-
 /* Every vector, by random access; every 7th again by a one-pixel fill. */
 static void test_pbrt_vectors(void **state)
 {
     (void)state;
-    FILE *f = fopen(VECTORS, "r");
-    if (!f)
-        print_error("cannot open %s (run from the repository root)\n", VECTORS);
-    assert_non_null(f);
+    FILE *f = pixel_vectors_open(VECTORS);
     char line[512];
     unsigned n = 0, bad = 0, per[4] = {0};
-    while (fgets(line, sizeof line, f)) {
-        if (line[0] == '#' || line[0] == '\n')
-            continue;
+    while (pixel_vectors_next(f, line, sizeof line)) {
         char name[32];
         unsigned long long spp, sample;
         unsigned w, h, seed, x, y, dim, v0, v1;
@@ -61,7 +42,7 @@ static void test_pbrt_vectors(void **state)
         const int pair = s != QMC_PIXEL_SOBOL;
         assert_int_equal(got, pair ? 11 : 10);
         const uint32_t dims = dim + (pair ? 2 : 1);
-        qmc_pixels *p = make(s, spp, w, h, seed, dims);
+        qmc_pixels *p = pixel_make(s, w, h, spp, seed, 0, dims);
         uint32_t want[2] = {v0, v1}, have[2] = {0, 0};
         for (int k = 0; k < 1 + pair; k++) {
             assert_int_equal(qmc_pixels_at(p, x, y, sample, dim + (uint32_t)k, &have[k]), 0);
@@ -73,11 +54,7 @@ static void test_pbrt_vectors(void **state)
             }
         }
         if (n % 7 == 0) {
-            qmc_pixel_tile t = {.x = x, .y = y, .width = 1, .height = 1,
-                                .sample_start = sample, .sample_count = 1};
-            uint32_t *buf = malloc(dims * sizeof *buf);
-            assert_non_null(buf);
-            assert_int_equal(qmc_pixels_fill(p, &t, QMC_FORMAT_U32, buf), 0);
+            uint32_t *buf = pixel_fill_u32(p, x, y, 1, 1, sample, 1);
             for (int k = 0; k < 1 + pair; k++)
                 assert_int_equal(buf[dim + (uint32_t)k], want[k]);
             free(buf);

@@ -15,33 +15,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pixel_test.h"
 #include "qmc/pixel.h"
 
 static const qmc_pixel_sampler all[] = {QMC_PIXEL_ZSOBOL, QMC_PIXEL_PADDED_SOBOL,
                                         QMC_PIXEL_SOBOL};
-
-static qmc_pixels *make(qmc_pixel_sampler s, uint32_t w, uint32_t h, uint64_t spp,
-                        uint32_t seed, uint32_t frame, uint32_t dims)
-{
-    qmc_pixel_spec spec = {.sampler = s, .width = w, .height = h, .spp = spp,
-                           .seed = seed, .frame = frame, .dims = dims};
-    qmc_pixels *p = NULL;
-    assert_int_equal(qmc_pixels_new(&spec, &p), 0);
-    return p;
-}
-
-static uint32_t *fill_u32(const qmc_pixels *p, uint32_t x, uint32_t y, uint32_t w, uint32_t h,
-                          uint64_t s0, uint64_t n)
-{
-    qmc_pixel_tile t = {.x = x, .y = y, .width = w, .height = h, .sample_start = s0,
-                        .sample_count = n};
-    uint64_t values = 0;
-    assert_int_equal(qmc_pixels_tile_check(p, &t, &values, NULL, 0), 0);
-    uint32_t *buf = malloc(values * sizeof *buf);
-    assert_non_null(buf);
-    assert_int_equal(qmc_pixels_fill(p, &t, QMC_FORMAT_U32, buf), 0);
-    return buf;
-}
 
 /* Top b bits of a 32-bit value (b in 0..32). */
 static uint32_t topbits(uint32_t v, uint32_t b)
@@ -85,9 +63,9 @@ static void test_pixel_samples_are_nets(void **state)
         for (uint32_t L = 0; L <= 10; L++)
             for (uint32_t seed = 0; seed < 2; seed++) {
                 const uint32_t dims = 7, frame = seed * 3;
-                qmc_pixels *p = make(all[s], 64, 64, 1ull << L, seed * 977, frame, dims);
+                qmc_pixels *p = pixel_make(all[s], 64, 64, 1ull << L, seed * 977, frame, dims);
                 for (size_t q = 0; q < 4; q++) {
-                    uint32_t *v = fill_u32(p, px[q][0], px[q][1], 1, 1, 0, 1ull << L);
+                    uint32_t *v = pixel_fill_u32(p, px[q][0], px[q][1], 1, 1, 0, 1ull << L);
                     for (uint32_t k = 0; k + 1 < dims; k += 2)
                         assert_true(is_net(v + k, dims, L));
                     free(v);
@@ -107,13 +85,13 @@ static void test_prefix_nets(void **state)
 {
     (void)state;
     for (uint32_t L = 2; L <= 9; L++) {
-        qmc_pixels *z = make(QMC_PIXEL_ZSOBOL, 32, 32, 1ull << L, 11, 0, 4);
-        qmc_pixels *pd = make(QMC_PIXEL_PADDED_SOBOL, 32, 32, 1ull << L, 11, 0, 4);
+        qmc_pixels *z = pixel_make(QMC_PIXEL_ZSOBOL, 32, 32, 1ull << L, 11, 0, 4);
+        qmc_pixels *pd = pixel_make(QMC_PIXEL_PADDED_SOBOL, 32, 32, 1ull << L, 11, 0, 4);
         unsigned z_other = 0, z_other_bad = 0, pd_bad = 0, pd_n = 0;
         for (uint32_t y = 0; y < 32; y += 7)
             for (uint32_t x = 0; x < 32; x += 5) {
-                uint32_t *v = fill_u32(z, x, y, 1, 1, 0, 1ull << L);
-                uint32_t *w = fill_u32(pd, x, y, 1, 1, 0, 1ull << L);
+                uint32_t *v = pixel_fill_u32(z, x, y, 1, 1, 0, 1ull << L);
+                uint32_t *w = pixel_fill_u32(pd, x, y, 1, 1, 0, 1ull << L);
                 for (uint32_t m = 1; m < L; m++)
                     for (uint64_t q = 0; q < (1ull << (L - m)); q++)
                         for (uint32_t k = 0; k < 4; k += 2) {
@@ -148,13 +126,13 @@ static void test_frames_differ_and_repeat(void **state)
     static const uint32_t frames[] = {1, 2, 1000, 0xffffffffu};
     const uint32_t dims = 6, n = 16 * 16 * 16 * dims;
     for (size_t s = 0; s < 3; s++) {
-        qmc_pixels *p0 = make(all[s], 40, 30, 16, 5, 0, dims);
-        uint32_t *a = fill_u32(p0, 20, 10, 16, 16, 0, 16);
+        qmc_pixels *p0 = pixel_make(all[s], 40, 30, 16, 5, 0, dims);
+        uint32_t *a = pixel_fill_u32(p0, 20, 10, 16, 16, 0, 16);
         for (size_t f = 0; f < 4; f++) {
-            qmc_pixels *p1 = make(all[s], 40, 30, 16, 5, frames[f], dims);
-            qmc_pixels *p2 = make(all[s], 40, 30, 16, 5, frames[f], dims);
-            uint32_t *b = fill_u32(p1, 20, 10, 16, 16, 0, 16);
-            uint32_t *c = fill_u32(p2, 20, 10, 16, 16, 0, 16);
+            qmc_pixels *p1 = pixel_make(all[s], 40, 30, 16, 5, frames[f], dims);
+            qmc_pixels *p2 = pixel_make(all[s], 40, 30, 16, 5, frames[f], dims);
+            uint32_t *b = pixel_fill_u32(p1, 20, 10, 16, 16, 0, 16);
+            uint32_t *c = pixel_fill_u32(p2, 20, 10, 16, 16, 0, 16);
             assert_memory_equal(b, c, (size_t)n * sizeof *b);
             unsigned same = 0;
             for (uint32_t k = 0; k < n; k++)
@@ -185,12 +163,12 @@ static void test_frames_do_not_alias_samples(void **state)
     (void)state;
     const uint32_t dims = 4, spp = 256;
     for (size_t s = 0; s < 3; s++) {
-        qmc_pixels *p0 = make(all[s], 8, 8, spp, 3, 0, dims);
-        qmc_pixels *p1 = make(all[s], 8, 8, spp, 3, 1, dims);
+        qmc_pixels *p0 = pixel_make(all[s], 8, 8, spp, 3, 0, dims);
+        qmc_pixels *p1 = pixel_make(all[s], 8, 8, spp, 3, 1, dims);
         for (uint32_t y = 0; y < 8; y += 3)
             for (uint32_t x = 0; x < 8; x += 3) {
-                uint32_t *a = fill_u32(p0, x, y, 1, 1, 0, spp);
-                uint32_t *b = fill_u32(p1, x, y, 1, 1, 0, spp);
+                uint32_t *a = pixel_fill_u32(p0, x, y, 1, 1, 0, spp);
+                uint32_t *b = pixel_fill_u32(p1, x, y, 1, 1, 0, spp);
                 uint64_t pa[256], pb[256];
                 for (uint32_t i = 0; i < spp; i++) {
                     pa[i] = (uint64_t)a[i * dims + 2] << 32 | a[i * dims + 3];
@@ -212,7 +190,7 @@ static void test_frames_do_not_alias_samples(void **state)
 static void disk_errors(const qmc_pixels *p, uint32_t k, double *err)
 {
     const uint32_t dims = qmc_pixels_get_spec(p)->dims, spp = 16;
-    uint32_t *v = fill_u32(p, 0, 0, 64, 64, 0, spp);
+    uint32_t *v = pixel_fill_u32(p, 0, 0, 64, 64, 0, spp);
     const double truth = 3.14159265358979323846 * 0.16;
     for (size_t px = 0; px < 64 * 64; px++) {
         unsigned in = 0;
@@ -259,13 +237,13 @@ static void test_frames_decorrelate_errors(void **state)
     assert_true(e0 && e1);
     static const uint32_t frames[] = {1, 2, 77};
     for (size_t s = 0; s < 3; s++) {
-        qmc_pixels *p0 = make(all[s], 64, 64, 16, 42, 0, 4);
+        qmc_pixels *p0 = pixel_make(all[s], 64, 64, 16, 42, 0, 4);
         for (uint32_t k = 0; k < 4; k += 2) {
             disk_errors(p0, k, e0);
             disk_errors(p0, k, e1);
             assert_true(correlation(e0, e1, n) > 0.999);
             for (size_t f = 0; f < 3; f++) {
-                qmc_pixels *p1 = make(all[s], 64, 64, 16, 42, frames[f], 4);
+                qmc_pixels *p1 = pixel_make(all[s], 64, 64, 16, 42, frames[f], 4);
                 disk_errors(p1, k, e1);
                 double r = correlation(e0, e1, n);
                 if (getenv("PIXEL_SHOW_R") || fabs(r) >= 0.0625)
@@ -290,8 +268,8 @@ static void test_distributed_split(void **state)
     static const uint32_t nodes[] = {2, 3, 7};
     for (size_t s = 0; s < 3; s++) {
         const uint64_t spp = all[s] == QMC_PIXEL_PADDED_SOBOL ? 100 : 256;
-        qmc_pixels *p = make(all[s], 30, 20, spp, 8, 4, dims);
-        uint32_t *whole = fill_u32(p, 20, 10, w, h, 0, spp);
+        qmc_pixels *p = pixel_make(all[s], 30, 20, spp, 8, 4, dims);
+        uint32_t *whole = pixel_fill_u32(p, 20, 10, w, h, 0, spp);
         uint32_t *joined = calloc((size_t)w * h * spp * dims, sizeof *joined);
         assert_non_null(joined);
         for (size_t q = 0; q < 3; q++) {
@@ -299,7 +277,7 @@ static void test_distributed_split(void **state)
             memset(joined, 0, (size_t)w * h * spp * dims * sizeof *joined);
             for (uint32_t k = 0; k < K; k++) {
                 const uint64_t a = k * spp / K, b = (k + 1) * spp / K;
-                uint32_t *part = fill_u32(p, 20, 10, w, h, a, b - a);
+                uint32_t *part = pixel_fill_u32(p, 20, 10, w, h, a, b - a);
                 for (size_t px = 0; px < (size_t)w * h; px++)
                     memcpy(joined + (px * spp + a) * dims, part + px * (b - a) * dims,
                            (size_t)(b - a) * dims * sizeof *part);
@@ -326,7 +304,7 @@ static void test_sobol_map_matches_sequence(void **state)
     static const uint64_t fs[] = {0, 1, 7, 1000};
     for (uint32_t m = 1; m <= 4; m++) {
         const uint32_t side = 1u << m, n = side * side;
-        qmc_pixels *p = make(QMC_PIXEL_SOBOL, side, side, 4096, 0, 0, 2);
+        qmc_pixels *p = pixel_make(QMC_PIXEL_SOBOL, side, side, 4096, 0, 0, 2);
         qmc_seq_spec ss = {.kind = QMC_SEQ_SOBOL, .dims = 2, .scramble = QMC_SCRAMBLE_NONE};
         qmc_seq *seq = NULL;
         assert_int_equal(qmc_seq_new(&ss, &seq), 0);
@@ -334,7 +312,7 @@ static void test_sobol_map_matches_sequence(void **state)
             uint64_t *ours = malloc(n * sizeof *ours), *want = malloc(n * sizeof *want);
             uint32_t *pts = malloc(2 * n * sizeof *pts);
             assert_true(ours && want && pts);
-            uint32_t *v = fill_u32(p, 0, 0, side, side, fs[q], 1);
+            uint32_t *v = pixel_fill_u32(p, 0, 0, side, side, fs[q], 1);
             for (uint32_t k = 0; k < n; k++) {
                 const uint32_t x = k % side, y = k / side;
                 const uint32_t d0 = x << (32 - m) | v[2 * k] >> m;

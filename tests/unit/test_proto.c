@@ -138,7 +138,7 @@ static void build_integrate(qmc_msg *m, int variant)
         in->method = QMC_METHOD_CUBATURE;
         in->sampling.sampler = QMC_SAMPLER_RQMC;
         in->sampling.seq = QMC_SEQ_LHS;
-        in->sampling.scramble = QMC_SCRAMBLE_FAURE;
+        in->sampling.scramble = QMC_SCRAMBLE_FAST_OWEN; /* the largest code */
         in->sampling.seq_flags = QMC_SEQ_SHUFFLE;
         in->sampling.seed = UINT64_MAX;
         in->sampling.n = UINT64_MAX;
@@ -201,7 +201,7 @@ static void build_result(qmc_msg *m, int variant)
     r->method_used = QMC_METHOD_CUBATURE;
     r->sampling.sampler = QMC_SAMPLER_RQMC;
     r->sampling.seq = QMC_SEQ_LHS;
-    r->sampling.scramble = QMC_SCRAMBLE_FAURE;
+    r->sampling.scramble = QMC_SCRAMBLE_FAST_OWEN;
     r->sampling.seq_flags = QMC_SEQ_SHUFFLE;
     r->sampling.seed = r->sampling.n = UINT64_MAX;
     r->sampling.reps = UINT32_MAX;
@@ -255,7 +255,7 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         m->request_id = ex ? 3 : m->request_id;
         m->u.points.seq.kind = mx ? QMC_SEQ_LHS : QMC_SEQ_SOBOL;
         m->u.points.seq.dims = mx ? UINT32_MAX : ex ? 2 : 0;
-        m->u.points.seq.scramble = mx ? QMC_SCRAMBLE_FAURE : QMC_SCRAMBLE_NONE;
+        m->u.points.seq.scramble = mx ? QMC_SCRAMBLE_FAST_OWEN : QMC_SCRAMBLE_NONE;
         m->u.points.seq.flags = mx ? QMC_SEQ_SHUFFLE : 0;
         m->u.points.seq.seed = mx ? UINT64_MAX : 0;
         m->u.points.seq.set_size = mx ? UINT64_MAX : 0;
@@ -841,7 +841,7 @@ static const mutation mutations[] = {
     {QMC_MSG_PING, 0, 2, 7, "data past the payload"},
     {QMC_MSG_POINTS, 0, 1, 0, "seq kind 0"},
     {QMC_MSG_POINTS, 0, 1, 7, "seq kind 7"},
-    {QMC_MSG_POINTS, 1, 1, 4, "scramble 4"},
+    {QMC_MSG_POINTS, 1, 1, 5, "scramble 5"},
     {QMC_MSG_POINTS, 2, 1, 0, "format 0"},
     {QMC_MSG_POINTS, 2, 1, 4, "format 4"},
     {QMC_MSG_POINTS, 3, 1, 2, "transport 2"},
@@ -866,7 +866,7 @@ static const mutation mutations[] = {
     {QMC_MSG_INTEGRATE, 56, 8, 0xfff0000000000000u, "tol_rel -inf"},
     {QMC_MSG_INTEGRATE, 64, 1, 5, "sampler 5"},
     {QMC_MSG_INTEGRATE, 65, 1, 7, "seq kind 7"},
-    {QMC_MSG_INTEGRATE, 66, 1, 4, "scramble 4"},
+    {QMC_MSG_INTEGRATE, 66, 1, 5, "scramble 5"},
     {QMC_MSG_INTEGRATE, 67, 1, 1, "reserved"},
     {QMC_MSG_INTEGRATE, 68, 4, 2, "undefined seq flag"},
     {QMC_MSG_INTEGRATE, 88, 8, 0x7ff8000000000001u, "confidence NaN"},

@@ -14,6 +14,7 @@
 
 #include "bits.h"
 #include "qmc/seq.h"
+#include "seq_fill_check.h"
 #include "sobol_impl.h"
 #include "sobol_table.h"
 #include "../vectors/seq_vectors.h"
@@ -439,48 +440,6 @@ static void test_scrambles_randomize(void **state)
     qmc_seq_free(b);
 }
 
-/* Fills [start, start + count) in format fmt into a buffer followed by
- * guard bytes: nothing may be written past the end, and every value must
- * equal at() in that format. */
-static void assert_fill_matches_at(const qmc_seq *s, uint32_t dims, uint64_t start,
-                                   uint64_t count, qmc_format fmt)
-{
-    enum { GUARD = 64 };
-    const size_t value = qmc_format_bytes(fmt);
-    const size_t used = (size_t)count * dims * value;
-    uint8_t *buf = malloc(used + GUARD);
-    memset(buf, 0x5a, used + GUARD);
-    assert_int_equal(qmc_seq_fill(s, start, count, fmt, buf), 0);
-    const char *scr = qmc_scramble_name(qmc_seq_get_spec(s)->scramble);
-    for (size_t g = 0; g < GUARD; g++)
-        if (buf[used + g] != 0x5a)
-            fail_msg("%s %s d=%u start=%llu count=%llu: byte %zu past the end written", scr,
-                     qmc_format_name(fmt), dims, (unsigned long long)start,
-                     (unsigned long long)count, g);
-    for (uint64_t p = 0; p < count; p++)
-        for (uint32_t j = 0; j < dims; j++) {
-            double x = at(s, start + p, j);
-            size_t i = (size_t)p * dims + j;
-            int same;
-            if (fmt == QMC_FORMAT_F64)
-                same = memcmp(&x, buf + 8 * i, 8) == 0;
-            else if (fmt == QMC_FORMAT_U32) {
-                uint32_t u;
-                memcpy(&u, buf + 4 * i, 4);
-                same = u == (uint32_t)(x * 0x1p32);
-            } else {
-                float v;
-                memcpy(&v, buf + 4 * i, 4);
-                same = v == (float)((uint32_t)(x * 0x1p32) >> 8) * 0x1p-24f;
-            }
-            if (!same)
-                fail_msg("%s %s d=%u start=%llu: point %llu dim %u differs from at()", scr,
-                         qmc_format_name(fmt), dims, (unsigned long long)start,
-                         (unsigned long long)(start + p), j);
-        }
-    free(buf);
-}
-
 static const qmc_scramble sobol_scrambles[] = {QMC_SCRAMBLE_NONE, QMC_SCRAMBLE_SHIFT,
                                                QMC_SCRAMBLE_OWEN};
 static const qmc_format all_formats[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
@@ -500,7 +459,7 @@ static void test_sobol_fill_tail_group(void **state)
             qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], sobol_scrambles[a], 11, 0);
             for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++)
                 for (size_t f = 0; f < 3; f++)
-                    assert_fill_matches_at(s, dims[b], 1 + 977 * c, counts[c], all_formats[f]);
+                    seq_assert_fill_matches_at(s, dims[b], 1 + 977 * c, counts[c], all_formats[f]);
             qmc_seq_free(s);
         }
 }
@@ -524,7 +483,7 @@ static void test_sobol_packed_fill_matches_at(void **state)
             qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], sobol_scrambles[a], 23, 0);
             for (size_t r = 0; r < sizeof ranges / sizeof ranges[0]; r++)
                 for (size_t f = 0; f < 3; f++)
-                    assert_fill_matches_at(s, dims[b], ranges[r][0], ranges[r][1],
+                    seq_assert_fill_matches_at(s, dims[b], ranges[r][0], ranges[r][1],
                                            all_formats[f]);
             qmc_seq_free(s);
         }
@@ -537,40 +496,13 @@ static void test_instruction_sets_agree(void **state)
 {
     (void)state;
     const qmc_scramble scr[] = {QMC_SCRAMBLE_NONE, QMC_SCRAMBLE_SHIFT, QMC_SCRAMBLE_OWEN};
-    const qmc_format fmts[] = {QMC_FORMAT_F64, QMC_FORMAT_F32, QMC_FORMAT_U32};
     const uint32_t dims[] = {1, 3, 8, 21, 300};
     int variants_run = 0;
     for (size_t a = 0; a < 3; a++)
         for (size_t b = 0; b < sizeof dims / sizeof dims[0]; b++) {
             qmc_seq *s = make(QMC_SEQ_SOBOL, dims[b], scr[a], 5, 0);
             /* count: d = 21 too has whole blocks packed (at least 21) */
-            const uint64_t start = 1000003, count = 405;
-            size_t bytes = (size_t)count * dims[b] * 8;
-            uint8_t *want = malloc(bytes), *got = malloc(bytes);
-            for (size_t f = 0; f < 3; f++) {
-                size_t used = (size_t)count * dims[b] * qmc_format_bytes(fmts[f]);
-                qmc__sobol_fill_generic(s, start, count, fmts[f], want);
-#ifdef QMC__SOBOL_AVX2
-                if (__builtin_cpu_supports("avx2")) {
-                    memset(got, 0xa5, bytes);
-                    qmc__sobol_fill_avx2(s, start, count, fmts[f], got);
-                    assert_memory_equal(want, got, used);
-                    variants_run++;
-                }
-                if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-                    __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq")) {
-                    memset(got, 0xa5, bytes);
-                    qmc__sobol_fill_avx512(s, start, count, fmts[f], got);
-                    assert_memory_equal(want, got, used);
-                    variants_run++;
-                }
-#endif
-                /* And the public entry point agrees with the baseline build. */
-                assert_int_equal(qmc_seq_fill(s, start, count, fmts[f], got), 0);
-                assert_memory_equal(want, got, used);
-            }
-            free(want);
-            free(got);
+            variants_run += seq_assert_sobol_builds_agree(s, dims[b], 1000003, 405);
             qmc_seq_free(s);
         }
     print_message("instruction-set variants compared: %d\n", variants_run);

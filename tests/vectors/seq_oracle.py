@@ -10,6 +10,10 @@ are built as whole arrays rather than evaluated digit by digit.  The golden
 digests only show that nothing changed; this shows the numbers are the
 ones the definitions say.
 
+fast-owen's per-dimension seeds come from MurmurHash64A, written here
+from the page's pseudo-code (tests/vectors/pbrt_sobol_fast_owen.h holds
+pbrt-v4's own values for the unit test).
+
 Usage: seq_oracle.py QMC JOE_KUO_FILE [CASES] [SEED]
 Prints "N passed, M failed" and exits non-zero on any mismatch.
 """
@@ -92,6 +96,29 @@ def nested(x, s):
     return reverse32(lk(reverse32(x), s))
 
 
+def murmur64a(data):
+    """MurmurHash64A, seed 0, as docs/SEQUENCES.md spells it out."""
+    m = 0xC6A4A7935BD1E995
+    h = (len(data) * m) & M64
+    whole = len(data) - len(data) % 8
+    for o in range(0, whole, 8):
+        k = int.from_bytes(data[o:o + 8], "little")
+        k = (k * m) & M64
+        k ^= k >> 47
+        k = (k * m) & M64
+        h = ((h ^ k) * m) & M64
+    if len(data) % 8:
+        h = ((h ^ int.from_bytes(data[whole:], "little")) * m) & M64
+    h ^= h >> 47
+    h = (h * m) & M64
+    return h ^ (h >> 47)
+
+
+def fast_owen_seed(seed, j):
+    width = 4 if seed < 1 << 32 else 8
+    return murmur64a(j.to_bytes(4, "little") + seed.to_bytes(width, "little")) & M32
+
+
 # ---- Sobol -------------------------------------------------------------------
 class Sobol:
     def __init__(self, path):
@@ -131,6 +158,8 @@ class Sobol:
             return x ^ (hash3(seed, j, TAG["shift"]) & M32)
         if scramble == "owen":
             return nested(x, hash3(seed, j, TAG["owen"]) & M32)
+        if scramble == "fast-owen":
+            return nested(x, fast_owen_seed(seed, j))
         return x
 
 
@@ -330,6 +359,31 @@ def main():
             for j in js:
                 check("%s %s index %d dim %d" % (" ".join(args), fmt, start + p, j),
                       got[p * dims + j], want(start + p, j))
+    # fast-owen, from its own random stream so that the cases above stay
+    # the ones they always were: seeds on both sides of 2^32 (4 or 8 seed
+    # bytes in the hash), counts past 8 * dims (the packed fill) too.
+    frng = random.Random(rng.getrandbits(64))
+    for c in range(max(cases // 8, 20)):
+        seed = frng.choice([0, 1, 7, M32, 1 << 32, frng.getrandbits(32), frng.getrandbits(64)])
+        dims = frng.choice([1, 2, 3, 5, 8, 9, 16, 31, 32, 33, 100, frng.randrange(1, 21202)])
+        count = frng.choice([1, 2, 3, 9, 8 * dims + 5]) if dims < 32 else frng.choice([1, 3, 9])
+        start = frng.choice([0, frng.randrange(1 << 10), frng.randrange((1 << 32) - count)])
+        shuffle = frng.random() < 0.2
+        fmt = frng.choice(["u32", "f64", "f32"])
+        args = ["--seq", "sobol", "--seed", str(seed), "--count", str(count), "--dims", str(dims),
+                "--scramble", "fast-owen", "--start", str(start)] + (["--shuffle"] if shuffle else [])
+        js = sorted(frng.sample(range(dims), min(dims, 24)))
+        ps = sorted(frng.sample(range(count), min(count, 12)))
+        got = run(qmc, args, fmt)
+        if len(got) != count * dims:
+            check("%s: %d values" % (" ".join(args), count * dims), len(got), count * dims)
+            continue
+        for p in ps:
+            for j in js:
+                y = sob.bits(start + p, j, "fast-owen", seed, shuffle)
+                want = {"u32": y, "f64": y * 2.0 ** -32, "f32": f32_of(y * 2.0 ** -32)}[fmt]
+                check("%s %s index %d dim %d" % (" ".join(args), fmt, start + p, j),
+                      got[p * dims + j], want)
     print("seq_oracle: %d passed, %d failed" % (passed, failed))
     sys.exit(1 if failed else 0)
 
