@@ -57,7 +57,7 @@
     X("max-sessions", max_sessions, 256, 1, 1u << 16, 1)                        \
     X("max-sessions-per-peer", max_sessions_per_peer, 32, 1, 1u << 16, 1)       \
     X("max-sessions-memory", max_sessions_memory, 512u << 20, 1u << 20, 1ull << 44, 1) \
-    X("max-sessions-memory-per-peer", max_sessions_memory_per_peer, 128u << 20, 1u << 20, \
+    X("max-sessions-memory-per-peer", max_sessions_memory_per_peer, 256u << 20, 1u << 20, \
       1ull << 44, 1)                                                            \
     X("session-idle-timeout-ms", session_idle_timeout_ms, 300000, 100, 86400000ull * 7, 1)
 

@@ -86,12 +86,13 @@ int qmcd__sessions_admit(qmcd_server *srv, const qmcd_identity *who, uint64_t by
                  (unsigned long long)cfg->max_jobs_memory_total);
     else if (mine_bytes + bytes > cfg->max_sessions_memory_per_peer)
         snprintf(why, n, "max-sessions-memory-per-peer: this session may need %llu bytes and "
-                 "%s's sessions hold %llu of %llu", (unsigned long long)bytes, peer,
-                 (unsigned long long)mine_bytes,
+                 "%s's sessions hold %llu of %llu; close one, or lower its max_memory or "
+                 "max_batch", (unsigned long long)bytes, peer, (unsigned long long)mine_bytes,
                  (unsigned long long)cfg->max_sessions_memory_per_peer);
     else if (all_bytes + bytes > cfg->max_sessions_memory)
         snprintf(why, n, "max-sessions-memory: this session may need %llu bytes and the open "
-                 "sessions hold %llu of %llu; try later", (unsigned long long)bytes,
+                 "sessions hold %llu of %llu; try later, or lower its max_memory or "
+                 "max_batch", (unsigned long long)bytes,
                  (unsigned long long)all_bytes, (unsigned long long)cfg->max_sessions_memory);
     else
         refused = 0;
