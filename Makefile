@@ -157,8 +157,15 @@ $(MODBUS_CLIENT): tests/e2e/modbus_client.c
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
 
+# The sessions e2e test's C peer (tests/e2e/test_sessions.sh): built-in
+# integrands evaluated by a client of libqmcclient.
+SESSION_PEER := $(BUILD)/tests/session-peer
+$(SESSION_PEER): tests/e2e/session_peer.c $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+
 # The plain suite: unit tests, end-to-end CLI tests, and the layering checks.
-test: all $(UNIT_BIN) $(MODBUS_CLIENT) lint-seams lint-symbols
+test: all $(UNIT_BIN) $(MODBUS_CLIENT) $(SESSION_PEER) lint-seams lint-symbols
 	@set -e; for t in $(UNIT_BIN); do echo "== $$t"; $$t; done
 	@set -e; for t in tests/e2e/test_*.sh; do echo "== $$t"; \
 	  QMC=$(abspath $(QMC)) QMCD=$(abspath $(QMCD)) BUILD=$(abspath $(BUILD)) sh $$t; done
@@ -249,6 +256,11 @@ $(BUILD)/bench/bench_integrate: bench/bench_integrate.c $(BENCH_INT_SRC) \
 	$(CC) $(CFLAGS) -O3 -Ibench -o $@ $< $(BENCH_INT_SRC) $(LIBQMC) -lgsl -lgslcblas \
 	  -lcubature $(LDLIBS)
 
+# A session through the daemon against qmc_integrate: a client of every layer.
+$(BUILD)/bench/bench_session_wire: bench/bench_session_wire.c $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -O3 -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+
 # qmc-load, the daemon's load generator, speaks the protocol: every layer.
 QMC_LOAD := $(BUILD)/bench/qmc-load
 $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
@@ -286,6 +298,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(PIXELS_LOAD) $(MODBUS_LOAD) $(M
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
+	$(BUILD)/bench/bench_session_wire $(QMCD) | tee $(BUILD)/bench/session_wire.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_pixels_remote.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)

@@ -350,6 +350,10 @@ static int check_proof(qmcd_conn *c, const qmc_msg_auth_response *resp)
     if (admitted(c, id) != 0)
         return -1;
     qmcd_debug("conn %llu (%s): authenticated", (unsigned long long)c->id, c->peer);
+    /* What outlives the connection (a session) belongs to this key: a
+     * digest of it names the identity (conn_services.h). */
+    crypto_generichash(c->key_id, sizeof c->key_id, srv->auth->key, srv->auth->key_bytes,
+                       (const unsigned char *)"qmcd key id", 11);
     qmc_msg ok = {.type = QMC_MSG_AUTH_OK, .request_id = id};
     ok.u.auth_ok = ac->ok;
     if (qmcd_conn_send(c, &ok) != 0)

@@ -45,6 +45,8 @@ struct qmcd_conn {
     const char *handshake_wait;  /* what the handshake waits for from the peer,
                                     for handshake-timeout-ms's ERROR (auth.c
                                     sets it); NULL: its HELLO */
+    uint8_t key_id[QMCD_KEY_ID_BYTES]; /* the key the handshake proved (auth.c),
+                                    or zeros */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;
     uint16_t version;            /* the protocol version HELLO_OK chose, or 0

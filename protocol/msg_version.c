@@ -19,6 +19,11 @@ unsigned qmc_proto_msg_min_version(const qmc_msg *msg)
         return QMC_PROTO_VERSION_AUTH;
     case QMC_MSG_PIXELS:
         return QMC_PROTO_VERSION_PIXELS;
+    case QMC_MSG_SESSION_OPEN:
+    case QMC_MSG_SESSION_VALUES:
+    case QMC_MSG_SESSION_RESUME:
+    case QMC_MSG_SESSION_CLOSE:
+        return QMC_PROTO_VERSION_SESSIONS;
     case QMC_MSG_POINTS:
         return msg->u.points.seq.scramble == QMC_SCRAMBLE_FAST_OWEN
                    ? QMC_PROTO_VERSION_FAST_OWEN : 1u;
