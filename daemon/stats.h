@@ -42,6 +42,11 @@
     X(memory_waits, "job_memory_waits")                     \
     X(memory_backfills, "job_memory_backfills")
 
+/* Message type codes counted in requests[]: every code is below it
+ * (stats.c asserts it for each message of QMC_MSG_MAP), the same bound
+ * as the dispatch table's (server.h, QMCD_ROUTE_TYPES). */
+#define QMCD_STATS_TYPES 64
+
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
 #define QMCD_LAT_PENDING 256
@@ -58,7 +63,7 @@ typedef struct qmcd_stats {
      * (the pool's; copied in, like memory_waits, when STATS is asked). */
     uint64_t memory_reserved;
     uint64_t memory_waiting;   /* gauge: 1 while a job waits for its memory */
-    uint64_t requests[32];     /* by message type code */
+    uint64_t requests[QMCD_STATS_TYPES]; /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;
     uint64_t lat_sum_us;       /* sum of the recorded latencies */
