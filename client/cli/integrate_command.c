@@ -4,8 +4,9 @@
  * through an integration session (qmc/session.h): each batch the session
  * asks for goes to PROGRAM's stdin, its values come back from its stdout
  * (command_codec.h says how they are written, command_pump.c moves them,
- * command_proc.c owns the process), and the report is `qmc integrate`'s
- * own, with the command as the integrand's name.
+ * command_proc.c owns the process, command_session.c holds the session,
+ * here or on a daemon), and the report is `qmc integrate`'s own, with the
+ * command as the integrand's name.
  *
  * Must not: print a result unless PROGRAM answered every point exactly
  * and ended well; fail with more than one line, or without naming what
@@ -21,8 +22,8 @@
 #include "command_codec.h"
 #include "command_proc.h"
 #include "command_pump.h"
+#include "command_session.h"
 #include "integrate.h"
-#include "qmc/session.h"
 
 /* How long a program whose output has ended gets to exit, so that the
  * message can give its exit status (at most --command-timeout). */
@@ -87,22 +88,20 @@ typedef struct cmd_run {
     char shown_buf[72];
     int timeout_ms;
     cli_cmd_format format;
-    qmc_session *s;
+    cli_cmd_session cs;
     cli_child child;
     int child_started;
     cli_pump pump;            /* both zeroed until made: closing is safe */
     cli_cmd_dec dec;
-    double *vals;
-    size_t vals_cap;
 } cmd_run;
 
 /* "; so far ..." - what the session had computed when the program failed:
  * the values it took, and its running estimate where the method has one
  * (qmc_session_status: the sampling methods, from whole replicates). */
-static void so_far(const qmc_session *s, char *buf, size_t cap)
+static void so_far(const cli_cmd_session *cs, char *buf, size_t cap)
 {
     qmc_session_report r;
-    qmc_session_status(s, &r);
+    cli_cmd_session_status(cs, &r);
     if (r.evals == 0) {
         snprintf(buf, cap, "; nothing was computed yet");
         return;
@@ -128,7 +127,7 @@ static int fail_batch(cmd_run *r, cli_pump_end end, const qmc_session_batch *b,
                       const cli_cmd_enc *e)
 {
     char sf[200], how[96];
-    so_far(r->s, sf, sizeof sf);
+    so_far(&r->cs, sf, sizeof sf);
     const char *cmd = r->shown;
     unsigned long long seq = (unsigned long long)b->seq;
     size_t got = r->dec.got, count = b->count;
@@ -177,12 +176,12 @@ static int finish_child(cmd_run *r)
     cli_pump_end end = cli_pump_drain(&r->pump, &r->child, &r->dec, r->timeout_ms);
     char sf[200], how[96];
     if (end == CLI_PUMP_BAD) {
-        so_far(r->s, sf, sizeof sf);
+        so_far(&r->cs, sf, sizeof sf);
         return cli_error("--command: '%s' wrote more after its last answer: more values "
                          "than points%s", r->shown, sf);
     }
     if (end == CLI_PUMP_SYS) {
-        so_far(r->s, sf, sizeof sf);
+        so_far(&r->cs, sf, sizeof sf);
         return cli_error("--command: talking to '%s' failed: %s%s", r->shown,
                          strerror(r->pump.sys_errno), sf);
     }
@@ -195,14 +194,14 @@ static int finish_child(cmd_run *r)
     if (r->child.reaped &&
         !(WIFEXITED(r->child.status) && WEXITSTATUS(r->child.status) == 0)) {
         cli_child_describe(&r->child, how, sizeof how);
-        so_far(r->s, sf, sizeof sf);
+        so_far(&r->cs, sf, sizeof sf);
         return cli_error("--command: '%s' %s after answering every point: no result "
                          "printed%s", r->shown, how, sf);
     }
     return 0;
 }
 
-static int open_session(cmd_run *r, const cli_problem *p)
+static int open_session(cmd_run *r, const cli_problem *p, const char *endpoint)
 {
     const cli_integrate *o = r->o;
     qmc_session_spec ss;
@@ -216,11 +215,7 @@ static int open_session(cmd_run *r, const cli_problem *p)
         return CLI_EXIT_FAIL;
     ss.part_k = o->part_k;
     ss.part_p = o->part_p;
-    char why[256] = "";
-    int err = qmc_session_new(&ss, &r->s, why, sizeof why);
-    if (err)
-        return cli_error("%s", why[0] ? why : qmc_strerror(err));
-    return 0;
+    return cli_cmd_session_open(&r->cs, &ss, endpoint);
 }
 
 /* Asks, sends, reads and tells until the session is done. */
@@ -228,26 +223,21 @@ static int run_batches(cmd_run *r)
 {
     for (;;) {
         qmc_session_batch b;
-        if (qmc_session_ask(r->s, &b) != 0)
-            return cli_error("--command: the session refused to hand out a batch");
+        double *vals;
+        char sf[200];
+        so_far(&r->cs, sf, sizeof sf);
+        if (cli_cmd_session_ask(&r->cs, &b, &vals, sf))
+            return CLI_EXIT_FAIL;
         if (b.count == 0)
             return 0;
-        if (b.count > r->vals_cap) {
-            double *v = realloc(r->vals, b.count * sizeof *v);
-            if (!v)
-                return cli_error("out of memory for a batch of %zu values", b.count);
-            r->vals = v;
-            r->vals_cap = b.count;
-        }
         cli_cmd_enc e;
         cli_cmd_enc_start(&e, r->format, b.points, b.count, b.dims);
-        cli_cmd_dec_start(&r->dec, r->vals, b.count);
+        cli_cmd_dec_start(&r->dec, vals, b.count);
         cli_pump_end end = cli_pump_batch(&r->pump, &r->child, &e, &r->dec, r->timeout_ms);
         if (end != CLI_PUMP_OK)
             return fail_batch(r, end, &b, &e);
-        char why[256] = "";
-        if (qmc_session_tell(r->s, b.seq, r->vals, b.count, why, sizeof why) != 0)
-            return cli_error("--command: %s", why);
+        if (cli_cmd_session_tell(&r->cs, b.seq, vals, b.count))
+            return CLI_EXIT_FAIL;
     }
 }
 
@@ -264,10 +254,9 @@ static void copy_text(char *dst, size_t bytes, const char *src)
 static int print_answer(cmd_run *r, const cli_problem *p, double seconds)
 {
     const cli_integrate *o = r->o;
-    char why[256] = "";
-    if (o->part_p) {
+    if (o->part_p) { /* in-process only: refused with --connect */
         qmc_session_part_sums ps;
-        int err = qmc_session_part(r->s, &ps);
+        int err = qmc_session_part(r->cs.local, &ps);
         if (err)
             return cli_error("%s", qmc_strerror(err));
         if (cli_partial_write_sums(stdout, o, ps.fingerprint, ps.blocks, ps.sums, ps.first,
@@ -276,9 +265,8 @@ static int print_answer(cmd_run *r, const cli_problem *p, double seconds)
         return 0;
     }
     qmc_integrate_report ir;
-    int err = qmc_session_result(r->s, &ir, why, sizeof why);
-    if (err)
-        return cli_error("%s", why[0] ? why : qmc_strerror(err));
+    if (cli_cmd_session_result(&r->cs, &ir))
+        return CLI_EXIT_FAIL;
     cli_report rep;
     memset(&rep, 0, sizeof rep);
     rep.requested = o->method;
@@ -299,9 +287,8 @@ int cli_integrate_command(const cli_integrate *o, const cli_problem *p, const ch
     if (o->threads > 1)
         return cli_error("--threads runs built-in integrands on several threads; a "
                          "--command's program is one process (drop --threads)");
-    if (endpoint)
-        return cli_error("--command needs the client library's sessions to run on a daemon, "
-                         "and this build has none yet: run it here with --connect ''");
+    if (endpoint && o->part_p)
+        return cli_remote_in_process_only("--part", "a --command's whole job");
     cmd_run r;
     memset(&r, 0, sizeof r);
     r.o = o;
@@ -312,7 +299,7 @@ int cli_integrate_command(const cli_integrate *o, const cli_problem *p, const ch
              strlen(o->command) > 60 ? "..." : "");
     r.shown = r.shown_buf;
     double t0 = cli_now_seconds();
-    int rc = open_session(&r, p);
+    int rc = open_session(&r, p, endpoint);
     char why[256] = "";
     if (rc == 0 && (cli_pump_init(&r.pump, r.format, o->dims) != 0 ||
                     cli_cmd_dec_init(&r.dec, r.format) != 0))
@@ -332,7 +319,6 @@ int cli_integrate_command(const cli_integrate *o, const cli_problem *p, const ch
         rc = print_answer(&r, p, seconds);
     cli_cmd_dec_close(&r.dec);
     cli_pump_close(&r.pump);
-    free(r.vals);
-    qmc_session_free(r.s);
+    cli_cmd_session_close(&r.cs);
     return rc;
 }
