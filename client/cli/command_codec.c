@@ -339,10 +339,9 @@ int cli_cmd_dec_feed(cli_cmd_dec *d, const char *data, size_t n)
 
 int cli_cmd_dec_end(cli_cmd_dec *d)
 {
-    if (d->status < 0 || d->format == CLI_CMD_F64)
+    if (d->status < 0)
         return d->status;
-    int r = cli_linebuf_end(&d->lines, on_value_line, d);
-    if (r != 0)
+    if (d->format == CLI_CMD_TEXT && cli_linebuf_end(&d->lines, on_value_line, d) != 0)
         return d->status;
     return d->status = d->got == d->count ? CLI_CMD_DONE : CLI_CMD_MORE;
 }
