@@ -286,6 +286,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
+	/usr/bin/python3 bench/bench_command.py $(QMC) $(BUILD)/bench | tee $(BUILD)/bench/command.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
 
