@@ -124,6 +124,9 @@ uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t j
     QMCD__PUT("jobs_open", jobs_open);
     QMCD__PUT("job_memory_reserved_bytes", s->memory_reserved);
     QMCD__PUT("job_memory_waiting", s->memory_waiting);
+    QMCD__PUT("sessions_open", s->sessions_open);
+    QMCD__PUT("sessions_parked_now", s->sessions_parked_now);
+    QMCD__PUT("session_memory_reserved_bytes", s->sessions_memory);
     for (size_t i = 0; i < sizeof request_names / sizeof request_names[0]; i++) {
         /* only what clients send: requests_HELLO, requests_PING, ...,
          * requests_SHM_RELEASE; a message added to the map appears here */
