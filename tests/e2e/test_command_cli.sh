@@ -30,8 +30,8 @@
 #      block sums equal the built-in part's.
 #   8. Option errors: one line, exit 2; `qmc help integrate` and bash
 #      completion name the options.
-#   9. Remote (--connect) gives the in-process bytes, when the daemon
-#      serves sessions.
+#   9. Remote (--connect, a session on qmcd) gives the in-process bytes,
+#      and the same failure lines.
 # Env: QMC, QMCD.  Needs /usr/bin/python3 with numpy.  Prints "N passed, M failed".
 set -u
 : "${QMC:?set QMC to the qmc binary}"
@@ -344,11 +344,11 @@ while True:
 EOF
 $T "$QMC" integrate --dims 2 --command "$PY $tmp/xy.py" --command-format f64 --method rqmc \
     --n 65536 --reps 3 --seed 2 --json > "$tmp/r3.json"
-want=$(awk -v e="$(json estimate < "$tmp/r3.json")" -v s="$(json stderr < "$tmp/r3.json")" \
+rwant=$(awk -v e="$(json estimate < "$tmp/r3.json")" -v s="$(json stderr < "$tmp/r3.json")" \
     'BEGIN { printf "running estimate %.10g (stderr %.3g)", e, s }')
 if [ $rc -eq 2 ] && [ "$(errlines | wc -l)" -eq 1 ] &&
-   errlines | grep -q "exited with status 4 after answering 0 of the 65536 points of batch 3; so far 196608 values in 3 batches, $want$"; then ok
-else bad "three replicates then exit: exit $rc, '$(errlines)', want '$want'"; fi
+   errlines | grep -q "exited with status 4 after answering 0 of the 65536 points of batch 3; so far 196608 values in 3 batches, $rwant$"; then ok
+else bad "three replicates then exit: exit $rc, '$(errlines)', want '$rwant'"; fi
 # The deadlock case: batches of 65536 points (2.4 MB of text each way
 # and more than any pipe holds) to a program that reads each whole before
 # writing a byte, and to one that writes as it reads.
@@ -462,13 +462,10 @@ if command -v bash > /dev/null && [ -f "$comp" ]; then
 fi
 
 # ---- 9. remote == in-process ---------------------------------------------------------------
-start d --listen "unix:$tmp/d.sock" || finish
-# A daemon without sessions (protocol 5's SESSION_OPEN) cannot run these.
-"$QMC" integrate --connect "unix:$tmp/d.sock" --dims 1 --command cat --method mc > "$tmp/out" 2> "$tmp/err"
-if grep -q 'SESSION_OPEN is sent by servers' "$tmp/err"; then
-    echo "SKIP: remote --command: this qmcd serves no sessions yet"
-    finish
-fi
+# Over a unix: socket the batches sit in the shared-memory ring; over TCP
+# they travel inline.
+start d --listen "unix:$tmp/d.sock" --listen tcp:127.0.0.1:0 || finish
+tcp=$(grep '^tcp:' "$tmp/d.ready")
 for m in "rqmc" "auto --tol-rel 1e-6" "cubature --tol-rel 1e-7"; do
     for fmt in text f64; do
         # shellcheck disable=SC2086
@@ -485,7 +482,25 @@ for m in "rqmc" "auto --tol-rel 1e-6" "cubature --tol-rel 1e-7"; do
         else bad "remote $m ($fmt) differs from in-process: $(cat "$tmp/err")"; fi
     done
 done
+$T "$QMC" integrate --connect "$tcp" --dims 3 --command "$PY $tmp/vec.py f64 ppeak 3 5,3,2 0.3,0.6,0.45" \
+    --command-format f64 --smoothness smooth --method mc --seed 4 --json > "$tmp/remote.json" 2> "$tmp/err"
+"$QMC" integrate --integrand genz-product-peak --dims 3 $PP --method mc --seed 4 --json > "$tmp/b.json"
+if grep -q '"exact":null' "$tmp/remote.json" &&
+   [ "$(json estimate < "$tmp/remote.json")" = "$(json estimate < "$tmp/b.json")" ] &&
+   [ "$(json stderr < "$tmp/remote.json")" = "$(json stderr < "$tmp/b.json")" ]; then ok
+else bad "over TCP: $(cat "$tmp/err")"; fi
+# shellcheck disable=SC2086
 fails "remote: early exit" "exited with status 3 after answering 999 of the 4096 points of batch 0" \
     --connect "unix:$tmp/d.sock" --command "$P exit $tmp/pid" $F
+# The running estimate the daemon reports is the in-process one.
+$T "$QMC" integrate --connect "unix:$tmp/d.sock" --dims 2 --command "$PY $tmp/three.py" \
+    --command-format f64 --method rqmc --n 65536 --reps 16 --seed 2 > "$tmp/out" 2> "$tmp/err"
+if errlines | grep -q "exited with status 4 after answering 0 of the 65536 points of batch 3; so far 196608 values in 3 batches, $rwant$"; then ok
+else bad "remote: three replicates then exit: '$(errlines)', want '$rwant'"; fi
+# A failed run leaves no session on the daemon, open or parked.
+"$QMC" stats --connect "unix:$tmp/d.sock" > "$tmp/stats"
+if grep -q '^sessions_open  *0$' "$tmp/stats" && grep -q '^sessions_parked_now  *0$' "$tmp/stats" &&
+   grep -q '^sessions_closed  *2$' "$tmp/stats"; then ok
+else bad "sessions left on the daemon: $(grep session "$tmp/stats" | tr '\n' ' ')"; fi
 
 finish
