@@ -28,6 +28,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -634,7 +635,22 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         const qmcd_ring *r = qmcd_conn_ring(c);
         data = r->base + (size_t)p->slot * r->slot_bytes + (size_t)p->points * s->spec.dims * 8;
     }
-    if (s->vals_cap < b->count) {
+    qmcd_pool_tenant *tenant;
+    if (qmcd_conn_tenant(c, &tenant) != 0) {
+        refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
+        return;
+    }
+    /* The whole batch's values in one frame, and a step that runs now,
+     * here: it reads them where they are (the frame, or the ring slot -
+     * which the client cannot get back before this handler returns).
+     * Otherwise they are copied out now: the slot goes back to the client
+     * as soon as it likes.  NaN or infinite values are counted, never
+     * refused (the integrator flags them). */
+    const double *in_place = NULL;
+    if (v->count == b->count && qmcd__sess_tell_now(s) &&
+        ((uintptr_t)data & (sizeof(double) - 1)) == 0)
+        in_place = (const double *)(const void *)data;
+    if (!in_place && s->vals_cap < b->count) {
         double *nv = realloc(s->vals, b->count * sizeof *nv);
         if (!nv) {
             refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
@@ -643,25 +659,21 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         s->vals = nv;
         s->vals_cap = b->count;
     }
-    /* Copied out now: the ring slot goes back to the client as soon as it
-     * likes, and NaN or infinite values are counted, never refused. */
-    double *dst = s->vals + s->got;
-    memcpy(dst, data, (size_t)v->count * 8);
+    const double *got = in_place;
+    if (!got) {
+        memcpy(s->vals + s->got, data, (size_t)v->count * 8);
+        got = s->vals + s->got;
+    }
     uint64_t nonfinite = 0;
     for (uint32_t i = 0; i < v->count; i++)
-        nonfinite += !isfinite(dst[i]);
+        nonfinite += !isfinite(got[i]);
     srv->stats.session_nonfinite += nonfinite;
     s->got += v->count;
     if (s->got < b->count)
         return;
     srv->stats.session_batches++;
     srv->stats.session_values += b->count;
-    qmcd_pool_tenant *tenant;
-    if (qmcd_conn_tenant(c, &tenant) != 0) {
-        refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
-        return;
-    }
-    qmcd__sess_start_tell(s, tenant);
+    qmcd__sess_start_tell(s, tenant, in_place);
 }
 
 static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)

@@ -79,7 +79,7 @@ struct qmcd_sess {
     unsigned polls;               /* hook calls in this step */
     int64_t step_start_ms;
     int64_t step_limit_ms;        /* job-time-limit-ms, copied on the loop */
-    int64_t last_step_us;         /* the last step's time: cheap ones stay on the loop */
+    int64_t last_step_us;         /* the last step's CPU time: cheap ones stay on the loop */
     double compute_s;             /* the steps' time, for SESSION_RESULT */
     int err;                      /* the opening's refusal, or the end's error */
     char why[512];
@@ -139,9 +139,13 @@ void qmcd__sessions_free(qmcd_sess *s);
 /* Starts the opening step (qmc_session_new) on the pool under tenant;
  * the session's memory waits for max-jobs-memory-total there like a job's. */
 void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant);
+/* 1 when the next step runs at once, on the loop thread (the last one was
+ * cheap): its values may then be read where they arrived. */
+int qmcd__sess_tell_now(const qmcd_sess *s);
 /* All the batch's values are in: the next step (qmc_session_tell), on the
- * loop when the last steps were cheap, else on the pool under tenant. */
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant);
+ * loop when the last steps were cheap (from values when not NULL, else
+ * s->vals), else on the pool under tenant (from s->vals). */
+void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values);
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
