@@ -151,6 +151,12 @@ $(BUILD)/tests/test_cli_files: tests/unit/test_cli_files.c $(CLI_UNIT_SRC) $(ALL
 	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CLI_UNIT_SRC) $(ALL_LIBS) \
 	  -lcmocka $(LDLIBS) $(LDFLAGS)
 
+# The --command codec (pure, like the readers above).
+CMD_UNIT_SRC := client/cli/command_codec.c client/cli/linebuf.c
+$(BUILD)/tests/test_command_codec: tests/unit/test_command_codec.c $(CMD_UNIT_SRC) $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -Iclient/cli $(DEPFLAGS) -o $@ $< $(CMD_UNIT_SRC) -lcmocka -lm $(LDFLAGS)
+
 # The Modbus e2e test's libmodbus master (tests/e2e/test_modbus.sh).
 MODBUS_CLIENT := $(BUILD)/tests/modbus-client
 $(MODBUS_CLIENT): tests/e2e/modbus_client.c
@@ -227,8 +233,10 @@ fuzz-lib:
 FUZZ_SRCS_config := daemon/config.c daemon/log.c daemon/modbus_spec.c daemon/regular_file.c
 FUZZ_SRCS_csv    := client/cli/csv_read.c client/cli/linebuf.c
 FUZZ_SRCS_part   := client/cli/part_read.c client/cli/linebuf.c
+FUZZ_SRCS_command := client/cli/command_codec.c client/cli/linebuf.c
 build/fuzz/fuzz_csv: $(FUZZ_SRCS_csv)
 build/fuzz/fuzz_part: $(FUZZ_SRCS_part)
+build/fuzz/fuzz_command: $(FUZZ_SRCS_command)
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c fuzz-lib
 	clang -std=c11 $(WARN) -ffp-contract=off $(FUZZ_FLAGS) -Iinclude -Idaemon -Iclient/cli -o $@ $< \
 	  $(FUZZ_SRCS_$*) build/fuzz/libqmcproto.a build/fuzz/libqmc.a -lm $(SODIUM_LIBS)
@@ -299,6 +307,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(PIXELS_LOAD) $(MODBUS_LOAD) $(M
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
 	$(BUILD)/bench/bench_session_wire $(QMCD) | tee $(BUILD)/bench/session_wire.txt
+	/usr/bin/python3 bench/bench_command.py $(QMC) $(BUILD)/bench | tee $(BUILD)/bench/command.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_pixels_remote.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)

@@ -3,7 +3,8 @@
  *
  * Sampling methods run on --threads threads through the block runner; the
  * numbers do not depend on the thread count.  --part K/P runs only part K
- * of the blocks and prints a partial result for `qmc merge`.
+ * of the blocks and prints a partial result for `qmc merge`.  --command
+ * runs a program of the user's as f (integrate_command.c).
  */
 #include <getopt.h>
 #include <math.h>
@@ -11,12 +12,15 @@
 #include <string.h>
 
 #include "cli.h"
+#include "command_codec.h"
 #include "integrate.h"
 #include "runner_threads.h"
 
 static const char integrate_help[] =
     "usage: qmc integrate (--integrand NAME --dims D [--a LIST] [--u LIST]\n"
-    "                      [--difficulty testpack|fixed] | --scene FILE)\n"
+    "                      [--difficulty testpack|fixed] | --scene FILE |\n"
+    "                      --command 'PROGRAM ARGS' --dims D [--command-format text|f64]\n"
+    "                      [--command-timeout MS] [--smoothness S] [--exact V])\n"
     "         --method auto|mc|stratified|lhs|qmc|rqmc|midpoint|trapezoid|simpson|\n"
     "                  gauss-legendre|gauss-kronrod|cubature|clenshaw-curtis\n"
     "         [--seq KIND] [--scramble S] [--shuffle] [--n N] [--reps R] [--split-net]\n"
@@ -36,6 +40,20 @@ static const char integrate_help[] =
     "                    poly (a = coefficients, default x^5), exp, cos (a1),\n"
     "                    inv-sqrt, log, step (u1) - the 1D functions need --dims 1\n"
     "  --a LIST, --u LIST  comma-separated parameters\n"
+    "  --command 'PROGRAM ARGS'  your own f: qmc starts PROGRAM (/bin/sh -c) and\n"
+    "                    sends it batches of points on its stdin; it writes f at\n"
+    "                    each point on its stdout, in order (docs/SESSIONS.md)\n"
+    "  --command-format F  text (default): a point is a line of D numbers, an\n"
+    "                    empty line ends a batch, and PROGRAM writes one value a\n"
+    "                    line; f64: a batch is a u32 count then count x D doubles,\n"
+    "                    the answer count doubles (all little-endian)\n"
+    "  --command-timeout MS  stop PROGRAM when it reads and writes nothing for MS\n"
+    "                    milliseconds while qmc waits on it (default 60000; 0 never)\n"
+    "  --smoothness S    what you know of your f, for auto and the flags: smooth,\n"
+    "                    kinks (the default: an unknown f may have them), jumps,\n"
+    "                    singular\n"
+    "  --exact V         your f's exact integral, when known: the report then\n"
+    "                    prints the actual error\n"
     "  --difficulty P    draw Genz a and u from --seed: testpack (sum a = h/d^e,\n"
     "                    Genz's h and e) or fixed (dimension-independent sums)\n"
     "  --method M        sampling: mc, stratified, lhs, qmc, rqmc;\n"
@@ -97,6 +115,9 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
         {"max-memory", required_argument, 0, 0}, {"confidence", required_argument, 0, 0},
         {"threads", required_argument, 0, 0},   {"part", required_argument, 0, 0},
         {"json", no_argument, 0, 0},            {"help", no_argument, 0, 0},
+        {"command", required_argument, 0, 0},  {"command-format", required_argument, 0, 0},
+        {"command-timeout", required_argument, 0, 0},
+        {"smoothness", required_argument, 0, 0}, {"exact", required_argument, 0, 0},
         {0, 0, 0, 0},
     };
     cli_job_options_init(o);
@@ -105,7 +126,8 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
     uint64_t v;
     while ((more = cli_next_option("integrate", argc, argv, longopts, &first, &name, &arg)) > 0) {
         int job_arg = strcmp(name, "part") != 0 && strcmp(name, "threads") != 0 &&
-                      strcmp(name, "json") != 0 && strcmp(name, "help") != 0;
+                      strcmp(name, "json") != 0 && strcmp(name, "help") != 0 &&
+                      strcmp(name, "command-timeout") != 0;
         if (job_arg && o->n_job_args + 2 <= CLI_MAX_ARGS) {
             /* Kept verbatim (argv outlives the run) for partial files:
              * "--opt=value" is one word, "--opt value" two. */
@@ -190,6 +212,27 @@ int cli_integrate_parse(int argc, char **argv, cli_integrate *o)
             o->part_k = k, o->part_p = p;
         } else if (strcmp(name, "json") == 0) {
             o->json = 1;
+        } else if (strcmp(name, "command") == 0) {
+            if (!arg[strspn(arg, " \t\n")])
+                return cli_error("--command: name the PROGRAM to run"), -1;
+            o->command = arg;
+        } else if (strcmp(name, "command-format") == 0) {
+            cli_cmd_format fmt;
+            if (cli_cmd_format_parse(arg, &fmt) != 0)
+                return cli_error("--command-format: want text or f64, not '%s'", arg), -1;
+            o->command_format = arg;
+        } else if (strcmp(name, "command-timeout") == 0) {
+            if (cli_parse_u64("--command-timeout", arg, 0, INT32_MAX, &o->command_timeout_ms))
+                return -1;
+        } else if (strcmp(name, "smoothness") == 0) {
+            if (cli_smoothness_parse(arg, &o->smoothness) != 0)
+                return cli_error("--smoothness: want smooth, kinks, jumps or singular, not "
+                                 "'%s'", arg), -1;
+            o->have_smoothness = 1;
+        } else if (strcmp(name, "exact") == 0) {
+            if (cli_parse_double("--exact", arg, &o->exact))
+                return -1;
+            o->have_exact = 1;
         }
     }
     if (more < 0)
@@ -236,11 +279,6 @@ int cli_integrate_defaults(cli_integrate *o, const cli_problem *p)
 
 static int run_part(const cli_integrate *o, const cli_problem *p)
 {
-    if (!is_sampler(o->method))
-        return cli_error("--part splits sampling methods (mc, stratified, lhs, qmc, rqmc), "
-                         "not %s", o->method);
-    if (o->tol_abs > 0 || o->tol_rel > 0)
-        return cli_error("--part needs a fixed --n: adaptive stopping decides n as it goes");
     char why[256];
     qmc_sampling_job *job = NULL;
     if (qmc_sampling_job_new(&o->spec, p->f, p->g, &job, why, sizeof why) != 0)
@@ -271,7 +309,7 @@ int cli_cmd_integrate(int argc, char **argv)
     int r = cli_integrate_parse(argc, argv, &o);
     if (r != 0)
         return r > 0 ? CLI_EXIT_OK : CLI_EXIT_FAIL;
-    if (endpoint && (o.part_p || o.threads > 1))
+    if (endpoint && !o.command && (o.part_p || o.threads > 1))
         return cli_remote_in_process_only(o.part_p ? "--part" : "--threads", "the whole job");
     /* The problem is built here in remote mode too: the same checks and
      * messages before anything is sent, and the integrand's known
@@ -280,7 +318,14 @@ int cli_cmd_integrate(int argc, char **argv)
     if (cli_problem_make(&o, &p))
         return CLI_EXIT_FAIL;
     int rc = cli_integrate_defaults(&o, &p) ? CLI_EXIT_FAIL : 0;
-    if (rc == 0 && o.part_p) {
+    if (rc == 0 && o.part_p && !is_sampler(o.method))
+        rc = cli_error("--part splits sampling methods (mc, stratified, lhs, qmc, rqmc), "
+                       "not %s", o.method);
+    else if (rc == 0 && o.part_p && (o.tol_abs > 0 || o.tol_rel > 0))
+        rc = cli_error("--part needs a fixed --n: adaptive stopping decides n as it goes");
+    if (rc == 0 && o.command) {
+        rc = cli_integrate_command(&o, &p, endpoint);
+    } else if (rc == 0 && o.part_p) {
         rc = run_part(&o, &p);
     } else if (rc == 0) {
         cli_report rep;

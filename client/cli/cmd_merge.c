@@ -187,8 +187,15 @@ int cli_cmd_merge(int argc, char **argv)
     char why[256];
     if (rc == 0 && qmc_sampling_job_new(&o.spec, p.f, p.g, &job, why, sizeof why) != 0)
         rc = cli_error("merge: %s", why);
-    if (rc == 0 && (qmc_sampling_fingerprint(job) != m.fingerprint ||
-                    qmc_sampling_blocks(job) != m.blocks))
+    /* A --command's f is a program merge does not run: its parts'
+     * fingerprints (which hold f's values at four points) agree with each
+     * other, and the job's shape is checked by its block count. */
+    if (rc == 0 && o.command && qmc_sampling_blocks(job) != m.blocks)
+        rc = cli_error("merge: the parts were made by a different qmc (%llu blocks; this "
+                       "build makes %llu of the job)", m.blocks,
+                       (unsigned long long)qmc_sampling_blocks(job));
+    if (rc == 0 && !o.command && (qmc_sampling_fingerprint(job) != m.fingerprint ||
+                                  qmc_sampling_blocks(job) != m.blocks))
         rc = cli_error("merge: the parts were made by a different qmc (job fingerprint "
                        "%016llx over %llu blocks; this build makes %016llx over %llu)",
                        m.fingerprint, m.blocks,

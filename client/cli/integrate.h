@@ -4,7 +4,8 @@
  * cmd_integrate.c parses options into a cli_integrate and runs it;
  * integrate_setup.c builds integrands from names or scenes;
  * integrate_output.c prints results (text or JSON) for both commands;
- * partial.c writes --part files; part_read.c reads them (format there).
+ * partial.c writes --part files; part_read.c reads them (format there);
+ * integrate_command.c runs --command, a program of the user's as f.
  */
 #ifndef QMC_CLI_INTEGRATE_H
 #define QMC_CLI_INTEGRATE_H
@@ -34,6 +35,15 @@ typedef struct cli_integrate {
     const char *strategy;         /* scene strategy */
     double beta;
     uint32_t samples_brdf, samples_light;
+    /* --command: a program evaluates f (integrate_command.c), with what
+     * the user declares about it */
+    const char *command;
+    const char *command_format;   /* "text" | "f64"; NULL: text */
+    uint64_t command_timeout_ms;  /* 0: wait for ever */
+    qmc_smoothness smoothness;
+    int have_smoothness;
+    double exact;
+    int have_exact;
     /* how */
     const char *method;
     qmc_sampling_spec spec;
@@ -58,6 +68,10 @@ typedef struct cli_problem {
     int has_reference, reference_exact;
     int is_scene;
     const char *label;            /* e.g. "genz-gaussian" or the scene file */
+    /* --command: no job; f points here, at what the user declared about
+     * the program's f (dims, smoothness, exact value), for the report
+     * and qmc merge.  Its eval gives NaN: nothing here can run f. */
+    qmc_integrand declared;
 } cli_problem;
 
 /* What was run, for printing. */
@@ -99,6 +113,22 @@ int cli_integrate_defaults(cli_integrate *opt, const cli_problem *p);
 int cli_partial_write(FILE *f, const cli_integrate *opt, const qmc_sampling_job *job,
                       const qmc_sampling_sums *sums, uint64_t first, uint64_t count,
                       double seconds);
+/* The same from a job's fingerprint and block count (a --command part,
+ * whose job ran in a session). */
+int cli_partial_write_sums(FILE *f, const cli_integrate *opt, uint64_t fingerprint,
+                           uint64_t blocks, const qmc_sampling_sums *sums, uint64_t first,
+                           uint64_t count, double seconds);
+
+/* integrate_command.c.  The problem for --command (the declared f), or
+ * -1 after an error line (options that name another integrand). */
+int cli_command_problem(const cli_integrate *opt, cli_problem *p);
+/* Runs --command in a session, in-process or on the daemon at endpoint
+ * (NULL: here), and prints the report or, with --part, the part file.
+ * Returns the exit code after one error line on any failure. */
+int cli_integrate_command(const cli_integrate *opt, const cli_problem *p,
+                          const char *endpoint);
+/* "smooth", "kinks", "jumps", "singular" -> *out; -1 for anything else. */
+int cli_smoothness_parse(const char *name, qmc_smoothness *out);
 
 int cli_cmd_integrate(int argc, char **argv);
 int cli_cmd_merge(int argc, char **argv);

@@ -49,13 +49,18 @@ int cli_job_spec(const cli_integrate *o, qmc_job_spec *s, char **scene_text)
     qmc_job_spec_init(s);
     *scene_text = NULL;
     if (!o->integrand && !o->scene)
-        return cli_error("integrate: name an --integrand or a --scene"), -1;
+        return cli_error("integrate: name an --integrand, a --scene or a --command"), -1;
     if (o->integrand && o->scene)
         return cli_error("integrate: give either --integrand or --scene, not both"), -1;
     if (o->strategy && !o->scene)
         return cli_error("--strategy chooses how a --scene is sampled; there is no scene"), -1;
     if (o->integrand && !o->have_dims)
         return cli_error("integrate: --dims D is required with --integrand"), -1;
+    if (o->dims > QMC_TESTFN_MAX_DIMS) /* --dims admits more for --command */
+        return cli_error("--dims: %u is outside 1..%u", o->dims, QMC_TESTFN_MAX_DIMS), -1;
+    if (o->have_smoothness || o->have_exact)
+        return cli_error("--smoothness and --exact declare what a --command computes; "
+                         "built-in integrands and scenes declare their own"), -1;
     if (o->scene && (o->have_dims || o->have_a || o->have_u || o->difficulty || o->control))
         return cli_error("--scene fixes the integrand: --dims, --a, --u, --difficulty and "
                          "--control do not apply"), -1;
@@ -95,6 +100,8 @@ int cli_job_spec(const cli_integrate *o, qmc_job_spec *s, char **scene_text)
 
 int cli_problem_make(const cli_integrate *o, cli_problem *p)
 {
+    if (o->command)
+        return cli_command_problem(o, p);
     memset(p, 0, sizeof *p);
     qmc_job_spec s;
     char *scene_text = NULL;

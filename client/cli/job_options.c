@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "integrate.h"
+#include "qmc/session.h"
 
 void cli_job_options_init(cli_integrate *o)
 {
@@ -21,6 +22,8 @@ void cli_job_options_init(cli_integrate *o)
     o->max_evals = 100000000;
     o->max_memory = 64u << 20;
     o->threads = 1;
+    o->command_timeout_ms = 60000;
+    o->smoothness = QMC_SMOOTH_CONTINUOUS;
 }
 
 /* "1,2.5,3" -> out[0 .. *n): at most CLI_MAX_LIST numbers, no empty item
@@ -54,7 +57,9 @@ int cli_job_option(cli_integrate *o, const char *name, const char *arg)
     } else if (strcmp(name, "scene") == 0) {
         o->scene = arg;
     } else if (strcmp(name, "dims") == 0) {
-        if (cli_parse_u64("--dims", arg, 1, QMC_TESTFN_MAX_DIMS, &v))
+        /* A --command takes as many as a session; cli_job_spec holds the
+         * built-in integrands to theirs. */
+        if (cli_parse_u64("--dims", arg, 1, QMC_SESSION_MAX_DIMS, &v))
             return -1;
         o->dims = (uint32_t)v, o->have_dims = 1;
     } else if (strcmp(name, "a") == 0) {

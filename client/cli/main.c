@@ -31,7 +31,7 @@ static const cli_command commands[] = {
     {"pixels", cli_cmd_pixels, 0, "write a tile of a renderer's pixel sampler (binary)"},
     {"discrepancy", cli_cmd_discrepancy, 1, "discrepancy of a CSV point set"},
     {"spectrum", cli_cmd_spectrum, 0, "Fourier power spectrum of a 2D point set"},
-    {"integrate", cli_cmd_integrate, 0, "integrate a test function or a scene"},
+    {"integrate", cli_cmd_integrate, 0, "integrate a test function, a scene or your program"},
     {"merge", cli_cmd_merge, 1, "combine --part results of an integration"},
     {"ping", cli_cmd_ping, 0, "round-trip time and identity of a qmcd daemon"},
     {"stats", cli_cmd_stats, 0, "a qmcd daemon's counters"},

@@ -50,14 +50,21 @@ int cli_partial_write(FILE *f, const cli_integrate *o, const qmc_sampling_job *j
                       const qmc_sampling_sums *sums, uint64_t first, uint64_t count,
                       double seconds)
 {
+    return cli_partial_write_sums(f, o, qmc_sampling_fingerprint(job), qmc_sampling_blocks(job),
+                                  sums, first, count, seconds);
+}
+
+int cli_partial_write_sums(FILE *f, const cli_integrate *o, uint64_t fingerprint,
+                           uint64_t blocks, const qmc_sampling_sums *sums, uint64_t first,
+                           uint64_t count, double seconds)
+{
     if (sodium_init() < 0)
         return cli_error("integrate: libsodium cannot start"), -1;
     hashed_out h;
     h.f = f;
     crypto_hash_sha256_init(&h.sha);
     putf(&h, CLI_PART_MAGIC "\nfingerprint %016llx\nblocks %llu\nseconds %.6f\n",
-         (unsigned long long)qmc_sampling_fingerprint(job),
-         (unsigned long long)qmc_sampling_blocks(job), seconds);
+         (unsigned long long)fingerprint, (unsigned long long)blocks, seconds);
     for (int i = 0; i < o->n_job_args; i++) {
         put(&h, "arg ", 4);
         put_word(&h, o->job_args[i]);

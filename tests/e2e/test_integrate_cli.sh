@@ -138,7 +138,7 @@ err_case() { # WORD ARGS...
 err_case "genz-nope" integrate --integrand genz-nope --dims 2 --method mc
 err_case "--dims" integrate --integrand genz-gaussian --method mc
 err_case "--a" integrate --integrand genz-gaussian --dims 2 --a 1,,2 --method mc
-err_case "--integrand or a --scene" integrate --method mc
+err_case "--integrand, a --scene or a --command" integrate --method mc
 err_case "unknown method" integrate --integrand exp --dims 1 --method simpsons
 err_case "evaluations" integrate --integrand genz-gaussian --dims 8 --method gauss-legendre --n 64
 err_case "1D" integrate --integrand genz-gaussian --dims 2 --method gauss-kronrod
