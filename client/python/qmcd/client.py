@@ -25,7 +25,7 @@ import numpy as np
 from . import auth as _auth
 from . import wire
 from .conn import Conn, open_socket, parse_endpoint
-from .errors import (AuthError, ProtocolError, QmcdError, ServerError, QMC_EINVAL,
+from .errors import (AuthError, FrameTooBig, ProtocolError, QmcdError, ServerError, QMC_EINVAL,
                      QMC_ENOTSUP)
 from .ring import Ring
 
@@ -226,8 +226,9 @@ class Client:
             if mtype == wire.AUTH_CHALLENGE:
                 mtype, msg = self._authenticate(rid, vmin, vmax, msg)
         except ProtocolError as e:
-            raise self._break(ProtocolError("handshake failed: the peer does not speak the "
-                                            "qmcd protocol (%s)" % e.message, e.code))
+            why = "handshake failed: the peer does not speak the qmcd protocol (%s)" % e.message
+            raise self._break(FrameTooBig(why) if isinstance(e, FrameTooBig)
+                              else ProtocolError(why, e.code))
         if mtype == wire.ERROR:
             raise self._break(ServerError(msg["code"], "the server refused the handshake: %s"
                                           % msg["message"], rid))
