@@ -279,6 +279,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
 	sh bench/bench_daemon.sh $(BUILD)
+	sh bench/bench_python.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
 
 # Every chart twice, PNG and SVG side by side (each .gp script takes png=

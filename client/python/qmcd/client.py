@@ -96,6 +96,7 @@ class Client:
         self._sessions = {}      # request id -> session state (sessions.py)
         self._ring = None
         self._shm_off = not shm
+        self._streaming = False  # a points_chunks() iteration is open
         self._lock = threading.RLock()
         self._conn = Conn(open_socket(endpoint, timeout), timeout, MAX_FRAME)
         try:
@@ -152,6 +153,9 @@ class Client:
         return rid
 
     def _send(self, mtype, fields, rid=None, fd=None):
+        if self._streaming and mtype not in (wire.SHM_RELEASE, wire.POINTS):
+            raise QmcdError(QMC_EINVAL, "a points_chunks() stream is open on this client: "
+                            "read it to its end first")
         if rid is None:
             rid = self._id()
         self._conn.send(wire.encode(mtype, rid, fields, self.version), fd)
@@ -381,10 +385,15 @@ class Client:
             self._shm_off = True
 
     # -- streams of points (POINTS and PIXELS answers) --
-    def _stream(self, mtype, fields, count, row_bytes, dest, first0):
-        """Sends one POINTS or PIXELS request for `count` points of row_bytes
-        and fills memoryview dest (count * row_bytes bytes) from its chunks;
-        the first chunk must start at index first0."""
+    def _stream(self, mtype, fields, count, row_bytes, first0, dest=None):
+        """A generator: sends one POINTS or PIXELS request for `count` points
+        of row_bytes bytes, the first at index first0, and yields (done,
+        points, view) for each chunk as it arrives, done being the points
+        before it.  With dest (a byte memoryview of count * row_bytes) the
+        chunk is already in place there and view is None; else view holds
+        its bytes (a ring slot, or a buffer reused for the next chunk),
+        valid until the generator is resumed.  Returns after END; raises
+        the daemon's ERROR as ServerError."""
         if count * row_bytes > AUTO_SLOT_BYTES:
             self._shm_auto()
         ring = self._ring
@@ -393,8 +402,10 @@ class Client:
         rid = self._send(mtype, fields)
         got = 0
         conn = self._conn
+        scratch = None
         while True:
-            self._release()
+            if ring is not None and ring.held:
+                self._release()
             ftype, frid, plen, deadline = conn.read_header()
             if frid != rid:
                 payload = conn.read_payload(plen, deadline)
@@ -413,7 +424,15 @@ class Client:
                         % (points, data_len, plen)))
                 self._check_chunk(first, points, data_len, first0 + got, count - got,
                                   row_bytes)
-                conn.read_into(dest[got * row_bytes:got * row_bytes + data_len], deadline)
+                if dest is not None:
+                    conn.read_into(dest[got * row_bytes:got * row_bytes + data_len], deadline)
+                    view = None
+                else:
+                    if scratch is None:
+                        scratch = memoryview(bytearray(wire.CHUNK_BYTES))
+                    view = scratch[:data_len]
+                    conn.read_into(view, deadline)
+                yield got, points, view
                 got += points
                 continue
             payload = conn.read_payload(plen, deadline)
@@ -430,25 +449,41 @@ class Client:
                         % (msg["data_len"], msg["slot"], ring.next, ring.slot_bytes,
                            ring.held, ring.slots)))
                 ring.next = (ring.next + 1) % ring.slots
-                ring.held += 1
-                n = msg["data_len"]
-                self._check_chunk(msg["first"], msg["points"], n, first0 + got, count - got,
+                ring.held += 1  # given back before we next wait (_release)
+                n, points = msg["data_len"], msg["points"]
+                self._check_chunk(msg["first"], points, n, first0 + got, count - got,
                                   row_bytes)
-                dest[got * row_bytes:got * row_bytes + n] = ring.slot(msg["slot"], n)
-                got += msg["points"]
+                view = ring.slot(msg["slot"], n)
+                if dest is not None:
+                    dest[got * row_bytes:got * row_bytes + n] = view
+                    view = None
+                    # Copied out: the slot can go back at once, so the
+                    # daemon refills it while we copy the next one.
+                    held, ring.held = ring.held, 0
+                    self._send(wire.SHM_RELEASE, {"slots": held}, rid=0)
+                yield got, points, view
+                got += points
             elif ftype == wire.END:
                 if msg["points"] != got or got != count or msg["bytes"] != got * row_bytes:
                     raise self._break(ProtocolError(
                         "protocol error: END says %d points in %d bytes; %d of %d points in "
                         "%d bytes arrived" % (msg["points"], msg["bytes"], got, count,
                                               got * row_bytes)))
+                if ring is not None and ring.held:
+                    self._release()
                 return
             elif ftype == wire.ERROR:
+                if ring is not None and ring.held:
+                    self._release()
                 raise ServerError(msg["code"], msg["message"], rid)
             else:
                 raise self._break(ProtocolError(
                     "protocol error: %s in a points stream (%s transport)"
                     % (wire.type_name(ftype), "shm" if shm else "inline")))
+
+    def _fill(self, mtype, fields, count, row_bytes, first0, dest):
+        for _ in self._stream(mtype, fields, count, row_bytes, first0, dest):
+            pass
 
     def _check_chunk(self, first, points, data_len, want_first, left, row_bytes):
         if first != want_first or points > left or data_len != points * row_bytes:
@@ -458,20 +493,8 @@ class Client:
                 % (points, data_len, first, want_first, row_bytes, left)))
 
     # -- points --
-    def points(self, kind, dims, count, start=0, scramble="none", seed=0, dtype="f64",
-               shuffle=False, set_size=None, out=None):
-        """Points [start, start + count) of a sequence as a (count, dims)
-        numpy array: what `qmc points` gives for the same options, value
-        for value.
-
-        kind: sobol, halton, hammersley, random, stratified, lhs.
-        scramble: none, shift, owen, faure, fast-owen (which the kind takes).
-        dtype: "f64" (float64), "f32" (float32: floor(x 2^24) / 2^24) or
-        "u32" (uint32: floor(x 2^32)).  set_size: the finite kinds'
-        (hammersley, stratified, lhs) set, default start + count, as the
-        CLI has it.  out: an array of that shape and dtype, C-contiguous,
-        to fill instead of a new one.
-        """
+    def _points_request(self, kind, dims, count, start, scramble, seed, dtype, shuffle,
+                        set_size):
         fmt = format_of(dtype)
         if kind not in wire.KINDS:
             raise ValueError("kind %r: want one of %s" % (kind, ", ".join(wire.KINDS)))
@@ -488,26 +511,81 @@ class Client:
             raise ValueError("set_size: %s is an infinite sequence and takes no set size" % kind)
         else:
             set_size = 0
-        arr = self._out(out, (count, dims), fmt)
-        if count == 0:
-            return arr
-        row = dims * wire.FORMAT_BYTES[fmt]
-        flat = memoryview(arr).cast("B")
+        if scramble == "fast-owen":
+            self._need(wire.VERSION_PIXELS, "scramble fast-owen")
         fields = {"kind": kind, "scramble": scramble, "format": fmt, "dims": dims,
                   "flags": wire.SEQ_SHUFFLE if shuffle else 0, "seed": int(seed) % 2**64,
                   "set_size": set_size}
-        if scramble == "fast-owen":
-            self._need(wire.VERSION_PIXELS, "scramble fast-owen")
+        return fmt, fields, dims, count, start, dims * wire.FORMAT_BYTES[fmt]
+
+    def points(self, kind, dims, count, start=0, scramble="none", seed=0, dtype="f64",
+               shuffle=False, set_size=None, out=None):
+        """Points [start, start + count) of a sequence as a (count, dims)
+        numpy array: what `qmc points` gives for the same options, value
+        for value.
+
+        kind: sobol, halton, hammersley, random, stratified, lhs.
+        scramble: none, shift, owen, faure, fast-owen (which the kind takes).
+        dtype: "f64" (float64), "f32" (float32: floor(x 2^24) / 2^24) or
+        "u32" (uint32: floor(x 2^32)).  set_size: the finite kinds'
+        (hammersley, stratified, lhs) set, default start + count, as the
+        CLI has it.  out: an array of that shape and dtype, C-contiguous,
+        to fill instead of a new one.  Each value is written once: from
+        the socket, or from the shared-memory ring, straight into the array.
+        """
+        fmt, fields, dims, count, start, row = self._points_request(
+            kind, dims, count, start, scramble, seed, dtype, shuffle, set_size)
+        arr = self._out(out, (count, dims), fmt)
+        if count == 0:
+            return arr
+        flat = memoryview(arr).cast("B")
         with self._lock:
             per = self.max_points or count
             done = 0
             while done < count:
                 n = min(per, count - done)
-                fields.update(start=start + done, count=n)
-                self._stream(wire.POINTS, dict(fields), n, row,
-                             flat[done * row:(done + n) * row], start + done)
+                fields["start"], fields["count"] = start + done, n
+                self._fill(wire.POINTS, fields, n, row, start + done,
+                           flat[done * row:(done + n) * row])
                 done += n
         return arr
+
+    def points_chunks(self, kind, dims, count, start=0, scramble="none", seed=0, dtype="f64",
+                      shuffle=False, set_size=None):
+        """The points of points(...), chunk by chunk as they arrive, without
+        copying them: yields (index, array) with array a read-only (n, dims)
+        view of the chunk's n points from index on - in the shared-memory
+        ring over a Unix socket.  Each view is valid only until the next
+        step (its slot then goes back to the daemon): copy what you keep.
+        Until the iteration ends the client takes no other request; leaving
+        it early closes the connection (the stream cannot be stopped)."""
+        fmt, fields, dims, count, start, row = self._points_request(
+            kind, dims, count, start, scramble, seed, dtype, shuffle, set_size)
+        dt = _result_dtype(fmt)
+        with self._lock:
+            if self._streaming:
+                raise QmcdError(QMC_EINVAL, "points_chunks: another stream is open on this "
+                                "client")
+            self._streaming = True
+            finished = False
+            try:
+                per = self.max_points or count
+                done = 0
+                while done < count:
+                    n = min(per, count - done)
+                    fields["start"], fields["count"] = start + done, n
+                    for got, pts, view in self._stream(wire.POINTS, fields, n, row,
+                                                       start + done):
+                        yield start + done + got, \
+                            np.frombuffer(view, dtype=dt).reshape(pts, dims)
+                    done += n
+                finished = True
+            finally:
+                self._streaming = False
+                if not finished and not self.closed:
+                    # Left mid-stream: the rest is on its way and cannot be
+                    # stopped, so the connection goes (as libqmcclient does).
+                    self.close()
 
     @staticmethod
     def _out(out, shape, fmt):
@@ -555,7 +633,7 @@ class Client:
                 # An empty tile: the daemon says what is wrong with it.
                 fields.update(x=x, y=y, tile_width=tw, tile_height=th, sample_start=s0,
                               sample_count=sn)
-                self._stream(wire.PIXELS, fields, 0, row, flat[:0], 0)
+                self._fill(wire.PIXELS, fields, 0, row, 0, flat[:0])
                 return arr
             per = self.max_points or total
             done = 0
@@ -564,7 +642,7 @@ class Client:
                 n = pw * ph * psn
                 f = dict(fields, x=px, y=py, tile_width=pw, tile_height=ph, sample_start=ps0,
                          sample_count=psn)
-                self._stream(wire.PIXELS, f, n, row, flat[done * row:(done + n) * row], 0)
+                self._fill(wire.PIXELS, f, n, row, 0, flat[done * row:(done + n) * row])
                 done += n
         return arr
 

@@ -120,18 +120,25 @@ def open_socket(endpoint, timeout):
 
 class Conn:
     """Frames over one connected socket.  timeout: seconds for each frame
-    (and each send), None for no limit."""
+    (and each send), None for no limit.
+
+    The socket is non-blocking and every wait is our own poll() bounded by
+    the deadline: a send that fits goes out in one system call, a read is
+    one poll and one recv."""
 
     BUF_BYTES = 256 << 10
 
     def __init__(self, sock, timeout, max_payload):
+        sock.setblocking(False)
         self.sock = sock
         self.timeout = timeout
         self.max_payload = max_payload
         self.buf = bytearray(self.BUF_BYTES)
         self.view = memoryview(self.buf)
         self.start = self.end = 0  # unread bytes are buf[start:end]
-        self.hdr = bytearray(wire.HEADER_BYTES)
+        self.poller = select.poll()
+        self.poller.register(sock, select.POLLIN)
+        self.polling = select.POLLIN
 
     @property
     def closed(self):
@@ -144,39 +151,57 @@ class Conn:
             finally:
                 self.sock = None
 
+    def _wait(self, events, deadline):
+        """Waits until the socket is ready for events (POLLIN or POLLOUT) or
+        the deadline passes (raises Timeout, closing the connection)."""
+        if events != self.polling:
+            self.poller.modify(self.sock, events)
+            self.polling = events
+        while True:
+            if deadline is None:
+                ms = -1
+            else:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    self.close()
+                    if events == select.POLLOUT:
+                        raise Timeout("the daemon took none of our request for %g s"
+                                      % self.timeout)
+                    raise Timeout("no answer from the daemon within %g s" % self.timeout)
+                ms = max(1, int(left * 1000 + 0.999))
+            if self.poller.poll(ms):
+                return
+
+    def _failed(self, e):
+        self.close()
+        return ConnectionLost("the connection broke: %s" % (e.strerror or e),
+                              -(e.errno or 104))
+
     # -- sending --
     def send(self, data, fd=None):
         """All of data, the descriptor fd (if any) riding with its first byte
         (SCM_RIGHTS, PROTOCOL.md section 10)."""
         if self.sock is None:
             raise ConnectionLost("the connection is closed")
-        deadline = _deadline(self.timeout)
+        deadline = None
+        view = memoryview(data)
         try:
-            self._settimeout(deadline)
-            if fd is not None:
-                sent = socket.send_fds(self.sock, [data], [fd])
-                data = memoryview(data)[sent:]
-                if len(data):
-                    self._settimeout(deadline)
-                    self.sock.sendall(data)
-            else:
-                self.sock.sendall(data)
-        except socket.timeout:
-            self.close()
-            raise Timeout("sending to the daemon timed out") from None
+            while len(view):
+                try:
+                    if fd is not None:
+                        n = socket.send_fds(self.sock, [view], [fd])
+                        fd = None
+                    else:
+                        n = self.sock.send(view)
+                    view = view[n:]
+                except BlockingIOError:
+                    if deadline is None and self.timeout is not None:
+                        deadline = time.monotonic() + self.timeout
+                    self._wait(select.POLLOUT, deadline)
+        except QmcdError:
+            raise  # our Timeout is an OSError too (TimeoutError)
         except OSError as e:
-            self.close()
-            raise ConnectionLost("the daemon closed the connection (%s)"
-                                 % (e.strerror or e), -(e.errno or 104)) from None
-
-    def _settimeout(self, deadline):
-        if deadline is None:
-            self.sock.settimeout(None)
-            return
-        left = deadline - time.monotonic()
-        if left <= 0:
-            raise socket.timeout()
-        self.sock.settimeout(left)
+            raise self._failed(e) from None
 
     # -- receiving --
     def buffered(self):
@@ -200,45 +225,51 @@ class Conn:
             return True
         if self.sock is None:
             raise ConnectionLost("the connection is closed")
-        p = select.poll()
-        p.register(self.sock, select.POLLIN)
+        if self.polling != select.POLLIN:
+            self.poller.modify(self.sock, select.POLLIN)
+            self.polling = select.POLLIN
         ms = -1 if seconds is None else max(0, int(seconds * 1000))
-        return bool(p.poll(ms))
+        return bool(self.poller.poll(ms))
 
     def _recv(self, deadline, into=None):
-        """One recv into the buffer's free tail (or into `into`); returns
-        the byte count.  EOF, errors and the deadline raise."""
+        """One recv into the buffer's free tail (or into `into`), after
+        waiting for it; returns the byte count.  EOF, errors and the
+        deadline raise."""
         if self.sock is None:
             raise ConnectionLost("the connection is closed")
+        if into is None:
+            if self.start == self.end:
+                self.start = self.end = 0
+            elif self.end == len(self.buf):
+                n = self.end - self.start
+                self.buf[:n] = self.buf[self.start:self.end]
+                self.start, self.end = 0, n
+            into = self.view[self.end:]
+            own = True
+        else:
+            own = False
         try:
-            self._settimeout(deadline)
-            if into is None:
-                if self.start == self.end:
-                    self.start = self.end = 0
-                elif self.end == len(self.buf):
-                    n = self.end - self.start
-                    self.buf[:n] = self.buf[self.start:self.end]
-                    self.start, self.end = 0, n
-                got = self.sock.recv_into(self.view[self.end:])
-                self.end += got
-            else:
-                got = self.sock.recv_into(into)
-        except socket.timeout:
-            self.close()
-            raise Timeout("no answer from the daemon within %g s" % self.timeout) from None
+            while True:
+                try:
+                    got = self.sock.recv_into(into)
+                    break
+                except BlockingIOError:
+                    self._wait(select.POLLIN, deadline)
+        except QmcdError:
+            raise  # our Timeout is an OSError too (TimeoutError)
         except OSError as e:
-            self.close()
-            raise ConnectionLost("the connection broke: %s" % (e.strerror or e),
-                                 -(e.errno or 104)) from None
+            raise self._failed(e) from None
         if got == 0:
             self.close()
             raise ConnectionLost("the daemon closed the connection")
+        if own:
+            self.end += got
         return got
 
     def read_header(self):
         """The next frame's (type, request_id, payload_len), checked (section
         2); returns a deadline by which its payload must arrive too."""
-        deadline = _deadline(self.timeout)
+        deadline = None if self.timeout is None else time.monotonic() + self.timeout
         need = wire.HEADER_BYTES
         while self.end - self.start < need:
             have = self.end - self.start
@@ -248,7 +279,7 @@ class Conn:
                     self.close()
                     raise ProtocolError("protocol error: " + why)
             self._recv(deadline)
-        h = self.buf[self.start:self.start + need]
+        h = self.view[self.start:self.start + need]
         self.start += need
         try:
             mtype, rid, plen = wire.parse_header(h, self.max_payload)
@@ -287,11 +318,3 @@ class Conn:
         out = bytearray(plen)
         self.read_into(memoryview(out), deadline)
         return bytes(out)
-
-    def skip(self, n, deadline):
-        """Reads and drops n payload bytes."""
-        scratch = memoryview(bytearray(min(n, 1 << 16) or 1))
-        while n:
-            k = min(n, len(scratch))
-            self.read_into(scratch[:k], deadline)
-            n -= k

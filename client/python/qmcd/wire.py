@@ -603,10 +603,9 @@ def parse_header(buf, max_payload, allowed=SERVER_SENT):
     the order of section 2: fields, size against max_payload (FrameTooBig),
     then the type's own bounds.  `allowed` is the set of types this side
     may receive (the other direction is a protocol violation)."""
-    why = check_header_prefix(buf, HEADER_BYTES)
-    if why:
-        raise ProtocolError("malformed frame: " + why)
-    _, _, mtype, _, rid, plen, _ = HEADER.unpack(buf)
+    magic, version, mtype, flags, rid, plen, reserved = HEADER.unpack(buf)
+    if magic != MAGIC or version != FRAME_VERSION or mtype not in NAMES or flags or reserved:
+        raise ProtocolError("malformed frame: " + check_header_prefix(buf, HEADER_BYTES))
     if plen > max_payload:
         raise FrameTooBig("a %s frame announces %d payload bytes; we accept at most %d"
                           % (type_name(mtype), plen, max_payload))
