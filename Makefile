@@ -157,8 +157,15 @@ $(MODBUS_CLIENT): tests/e2e/modbus_client.c
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS) $(MODBUS_CFLAGS) -o $@ $< $(MODBUS_LIBS) $(LDFLAGS)
 
+# The sessions e2e test's C peer (tests/e2e/test_sessions.sh): built-in
+# integrands evaluated by a client of libqmcclient.
+SESSION_PEER := $(BUILD)/tests/session-peer
+$(SESSION_PEER): tests/e2e/session_peer.c $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+
 # The plain suite: unit tests, end-to-end CLI tests, and the layering checks.
-test: all $(UNIT_BIN) $(MODBUS_CLIENT) lint-seams lint-symbols
+test: all $(UNIT_BIN) $(MODBUS_CLIENT) $(SESSION_PEER) lint-seams lint-symbols
 	@set -e; for t in $(UNIT_BIN); do echo "== $$t"; $$t; done
 	@set -e; for t in tests/e2e/test_*.sh; do echo "== $$t"; \
 	  QMC=$(abspath $(QMC)) QMCD=$(abspath $(QMCD)) BUILD=$(abspath $(BUILD)) sh $$t; done

@@ -435,6 +435,10 @@ static void on_response(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         return;
     }
     record_success(srv->auth, ac->addr);
+    /* What outlives the connection (a session) belongs to this key: a
+     * digest of it names the identity (conn_services.h). */
+    crypto_generichash(c->key_id, sizeof c->key_id, srv->auth->key, srv->auth->key_bytes,
+                       (const unsigned char *)"qmcd key id", 11);
     const uint64_t id = ac->request_id;
     const uint16_t version = ac->st.version;
     const uint32_t max_frame = ac->client_max_frame;

@@ -48,7 +48,13 @@
     X("auth-max-failures", auth_max_failures, 5, 1, 1000000, 1)                 \
     X("auth-lockout-ms", auth_lockout_ms, 60000, 1, 86400000ull * 7, 1)         \
     X("max-jobs-memory-total", max_jobs_memory_total, 1ull << 30, 1u << 20, 1ull << 44, 1) \
-    X("job-memory-overtakes", job_memory_overtakes, 8, 0, 1u << 16, 1)
+    X("job-memory-overtakes", job_memory_overtakes, 8, 0, 1u << 16, 1)           \
+    X("max-sessions", max_sessions, 256, 1, 1u << 16, 1)                        \
+    X("max-sessions-per-peer", max_sessions_per_peer, 32, 1, 1u << 16, 1)       \
+    X("max-sessions-memory", max_sessions_memory, 512u << 20, 1u << 20, 1ull << 44, 1) \
+    X("max-sessions-memory-per-peer", max_sessions_memory_per_peer, 128u << 20, 1u << 20, \
+      1ull << 44, 1)                                                            \
+    X("session-idle-timeout-ms", session_idle_timeout_ms, 300000, 100, 86400000ull * 7, 1)
 
 typedef struct qmcd_config {
 #define QMCD__CFG_FIELD(key, field, def, min, max, reload) uint64_t field;

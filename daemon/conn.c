@@ -599,6 +599,13 @@ int qmcd_conn_is_unix(const qmcd_conn *c)
     return c->unix_socket;
 }
 
+void qmcd_conn_identity(const qmcd_conn *c, qmcd_identity *out)
+{
+    memset(out, 0, sizeof *out);
+    out->peer = c->peer_key;
+    memcpy(out->key_id, c->key_id, sizeof out->key_id);
+}
+
 unsigned qmcd_conn_version(const qmcd_conn *c)
 {
     return c->version;

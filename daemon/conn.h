@@ -36,6 +36,8 @@ struct qmcd_conn {
     uint64_t id;
     char peer[96];
     qmcd_peer_key peer_key;      /* counted in srv->peers unless refused */
+    uint8_t key_id[QMCD_KEY_ID_BYTES]; /* the key the handshake proved (auth.c),
+                                    or zeros */
     int refused;                 /* over a connection limit: ERROR, linger, close */
     int dead;                    /* fd closed; freed after this loop round */
     int hello_done;

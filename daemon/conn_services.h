@@ -14,6 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "peers.h"
 #include "qmc/proto.h"
 #include "server.h"
 
@@ -79,6 +80,16 @@ int qmcd_conn_is_unix(const qmcd_conn *c);
 unsigned qmcd_conn_version(const qmcd_conn *c);
 /* The largest frame payload the client accepts (its HELLO). */
 uint32_t qmcd_conn_client_max_frame(const qmcd_conn *c);
+/* Who the client is, for what outlives a connection (an integration
+ * session): its peer (peers.h: the uid on a Unix socket, the address over
+ * TCP) and, when the handshake authenticated it, a digest of the key it
+ * proved (all zero otherwise), so that a rotated key is another identity. */
+#define QMCD_KEY_ID_BYTES 16
+typedef struct qmcd_identity {
+    qmcd_peer_key peer;
+    uint8_t key_id[QMCD_KEY_ID_BYTES];
+} qmcd_identity;
+void qmcd_conn_identity(const qmcd_conn *c, qmcd_identity *out);
 /* The client's shared-memory ring (ring.h), or NULL before SHM_ATTACH. */
 qmcd_ring *qmcd_conn_ring(const qmcd_conn *c);
 /* Attaches r as its ring (shm.c; the connection frees it when it goes). */

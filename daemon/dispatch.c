@@ -23,7 +23,8 @@
 void qmcd_dispatch(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     qmcd_server *srv = c->srv;
-    srv->stats.requests[m->type & 31]++;
+    if ((unsigned)m->type < QMCD_STATS_TYPES) /* every decoded type is (stats.c) */
+        srv->stats.requests[m->type]++;
     /* No row: a server-to-client type (the decoder knows no others). */
     const qmcd_route *row = (unsigned)m->type < QMCD_ROUTE_TYPES ? srv->routes[m->type] : NULL;
     const unsigned flags = row ? row->flags : 0;

@@ -77,6 +77,7 @@ typedef struct job {
 #define JOB_OF(prod) ((job *)(void *)((char *)(prod) - offsetof(job, p)))
 
 static const qmcd_producer_kind job_kind;
+static void job_done(qmcd_server *srv, qmcd_pool_task *task);
 
 /* ---- the block runner (worker threads) ------------------------------------------ */
 
@@ -275,6 +276,7 @@ static void on_integrate(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     j->task.run = run_job;
     j->task.free_fn = task_free;
     j->task.must_stop = task_must_stop;
+    j->task.done = job_done;
     j->id = ++srv->next_job_id;
     j->progress_ms = g->progress_ms;
     j->t0_us = t0_us;
@@ -460,7 +462,23 @@ static qmcd_wait job_waiting(const qmcd_conn *c, const qmcd_producer *p)
     return JOB_OF(p)->finished ? QMCD_WAIT_NONE : QMCD_WAIT_WORK;
 }
 
-/* The pool's eventfd watch: finished jobs come back to the loop here. */
+/* A finished job, back on the loop (its task's done callback). */
+static void job_done(qmcd_server *srv, qmcd_pool_task *task)
+{
+    job *j = (job *)task;
+    j->finished = 1;
+    srv->n_jobs--;
+    qmcd_debug("job %llu finished: %s in %.3f s", (unsigned long long)j->id,
+               qmc_job_state_name((qmc_job_state)atomic_load(&j->state)), j->seconds);
+    if (!j->conn) {
+        job_free(j); /* its connection is gone */
+        return;
+    }
+    qmcd_conn_kick(j->conn); /* the pump answers it */
+}
+
+/* The pool's eventfd watch: finished tasks - jobs, session steps - come
+ * back to the loop here, each to its own done callback. */
 static void on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
 {
     (void)events;
@@ -469,17 +487,9 @@ static void on_done(qmcd_server *srv, qmcd_watch *w, uint32_t events)
         qmcd_warn("eventfd read: %s", strerror(errno));
     qmcd_pool_task *done = qmcd_pool_take_done(srv->pool);
     while (done) {
-        job *j = (job *)done;
+        qmcd_pool_task *task = done;
         done = done->next;
-        j->finished = 1;
-        srv->n_jobs--;
-        qmcd_debug("job %llu finished: %s in %.3f s", (unsigned long long)j->id,
-                   qmc_job_state_name((qmc_job_state)atomic_load(&j->state)), j->seconds);
-        if (!j->conn) {
-            job_free(j); /* its connection is gone */
-            continue;
-        }
-        qmcd_conn_kick(j->conn); /* the pump answers it */
+        task->done(srv, task);
     }
 }
 

@@ -15,6 +15,7 @@
     X(qmcd_shm_module)    /* shm.c: SHM_ATTACH, SHM_RELEASE (the client's ring) */    \
     X(qmcd_points_module) /* points.c: POINTS streams */                              \
     X(qmcd_jobs_module)   /* jobs.c: INTEGRATE jobs, JOB_STATUS, JOB_CANCEL */        \
+    X(qmcd_session_module) /* session*.c: integration sessions (PROTOCOL.md 6.21) */ \
     X(qmcd_pixels_module) /* pixels.c: PIXELS tiles */
 
 #define QMCD__MODULE_DECLARE(m) extern const qmcd_module m;

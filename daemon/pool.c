@@ -29,7 +29,9 @@
  * Job memory: each task states what it may allocate (mem_bytes, from
  * qmc_integrate_memory_bytes_for) and reserves it when it takes a runner; the
  * reservations of the tasks on runners stay within mem_total
- * (max-jobs-memory-total).  The first task whose turn comes while its
+ * (max-jobs-memory-total).  An integration session's opening task keeps
+ * its reservation past its run (qmcd_pool_memory_keep), for as long as
+ * the session lives, so sessions and jobs share the one total.  The first task whose turn comes while its
  * memory does not fit becomes the waiter; it starts as soon as its memory
  * fits, before anyone else.  Meanwhile the tenants go on in turn with
  * their first queued task that does fit (backfill: a small job need not
@@ -658,6 +660,28 @@ void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out)
     out->memory_backfills = pool->mem_backfills;
     out->memory_reserved = pool->mem_used;
     out->memory_waiting = pool->waiter != NULL;
+    pthread_mutex_unlock(&pool->mu);
+}
+
+uint64_t qmcd_pool_memory_keep(qmcd_pool_task *task)
+{
+    qmcd_pool *pool = task->pool;
+    pthread_mutex_lock(&pool->mu);
+    /* It stays in mem_used: the runner subtracts the task's mem_bytes when
+     * the run ends, and that is now 0. */
+    uint64_t kept = task->mem_bytes;
+    task->mem_bytes = 0;
+    pthread_mutex_unlock(&pool->mu);
+    return kept;
+}
+
+void qmcd_pool_memory_release(qmcd_pool *pool, uint64_t bytes)
+{
+    if (!bytes)
+        return;
+    pthread_mutex_lock(&pool->mu);
+    pool->mem_used = pool->mem_used > bytes ? pool->mem_used - bytes : 0;
+    pthread_cond_broadcast(&pool->runner_cv); /* a waiter may fit now */
     pthread_mutex_unlock(&pool->mu);
 }
 

@@ -1,7 +1,9 @@
 /*
- * pool.h - the worker pool that runs INTEGRATE jobs, shared fairly between
- * connections ("tenants", one a connection: conn_services.h); see pool.c.
- * jobs.c is its only user.
+ * pool.h - the worker pool that runs INTEGRATE jobs and the compute steps
+ * of integration sessions, shared fairly between connections ("tenants",
+ * one a connection: conn_services.h); see pool.c.  jobs.c and
+ * session_step.c submit to it; jobs.c watches its eventfd and hands every
+ * finished task to its done callback.
  */
 #ifndef QMCD_POOL_H
 #define QMCD_POOL_H
@@ -22,6 +24,9 @@ struct qmcd_pool_task {
     void (*run)(qmcd_pool_task *task);      /* on a runner, holding a slot */
     void (*free_fn)(qmcd_pool_task *task);  /* pool_free: a done task left over */
     int (*must_stop)(qmcd_pool_task *task); /* cancelled: starts past the limits */
+    /* Loop thread: the task came back from the done list (jobs.c's eventfd
+     * watch calls it for every finished task, whoever submitted it). */
+    void (*done)(qmcd_server *srv, qmcd_pool_task *task);
     qmcd_pool_task *next;                   /* pool mutex: queue or done list */
     qmcd_pool_tenant *tenant;
     qmcd_pool *pool;
@@ -74,6 +79,15 @@ typedef struct qmcd_pool_counts {
     int memory_waiting;          /* a queued task waits for its memory now */
 } qmcd_pool_counts;
 void qmcd_pool_counts_get(qmcd_pool *pool, qmcd_pool_counts *out);
+
+/* From a task's run: the memory it reserved (mem_bytes) stays reserved
+ * when the task ends, for what outlives the run (an integration session's
+ * state between its steps), until qmcd_pool_memory_release.  Returns the
+ * bytes kept (0 for a task started past the limits, which reserved none). */
+uint64_t qmcd_pool_memory_keep(qmcd_pool_task *task);
+
+/* Gives back bytes a task kept (qmcd_pool_memory_keep).  Loop thread. */
+void qmcd_pool_memory_release(qmcd_pool *pool, uint64_t bytes);
 
 /* Takes the list of finished tasks (linked by next).  Loop thread. */
 qmcd_pool_task *qmcd_pool_take_done(qmcd_pool *pool);

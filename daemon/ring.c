@@ -73,6 +73,7 @@ uint8_t *qmcd_ring_next(const qmcd_ring *r, uint32_t *slot)
 int qmcd_ring_hand_out(qmcd_ring *r)
 {
     r->next = r->next + 1 == r->slots ? 0 : r->next + 1;
+    r->handed_total++;
     if (++r->held == r->slots)
         r->full_ms = qmcd_now_ms();
     if (r->held == r->slots || ++r->unsent >= r->slots / 2) {
@@ -235,6 +236,7 @@ int qmcd_ring_take_back(qmcd_ring *r, uint32_t slots)
     if (slots > r->held)
         return -1;
     r->held -= slots;
+    r->released_total += slots;
     r->full_ms = 0;
     return 0;
 }

@@ -22,6 +22,10 @@ struct qmcd_ring {
     uint32_t held;               /* given to the client, not yet released */
     uint32_t unsent;             /* chunks queued since the last flush hint */
     int64_t full_ms;             /* when the last free slot was taken, or 0 */
+    /* Slots ever handed out and taken back: the slot handed out as the
+     * h-th (handed_total just after it) is still the client's while
+     * released_total < h (a session reads its values from it). */
+    uint64_t handed_total, released_total;
 };
 
 /* Checks the client's memfd fd (a memfd on shmem, sealed against

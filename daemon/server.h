@@ -21,6 +21,7 @@ typedef struct qmcd_peers qmcd_peers;
 typedef struct qmcd_modbus qmcd_modbus;
 typedef struct qmcd_route qmcd_route;
 typedef struct qmcd_module qmcd_module;
+typedef struct qmcd_sessions qmcd_sessions;
 
 /* The dispatch table's size: message type codes are below this. */
 #define QMCD_ROUTE_TYPES 64
@@ -56,6 +57,7 @@ struct qmcd_server {
     qmcd_pool *pool;
     qmcd_seqcache *seqs;
     uint64_t pixel_table_bytes; /* pixels.c: sampler tables open tiles hold (max-seq-memory) */
+    qmcd_sessions *sessions;   /* integration sessions, attached or parked (session_store.c) */
     qmcd_stats stats;
     qmcd_auth *auth;           /* the key and the lockout table (auth.c) */
     qmcd_modbus *modbus;       /* the Modbus bridge (modbus_bridge.h), or NULL */

@@ -79,7 +79,7 @@ static const struct {
 };
 
 #define QMCD__REQ_FITS(name, code, dir) \
-    _Static_assert((code) < 32, "qmcd_stats.requests is indexed by message type");
+    _Static_assert((code) < QMCD_STATS_TYPES, "qmcd_stats.requests is indexed by message type");
 QMC_MSG_MAP(QMCD__REQ_FITS)
 #undef QMCD__REQ_FITS
 
@@ -124,11 +124,14 @@ uint32_t qmcd_stats_entries(const qmcd_stats *s, uint64_t conns_open, uint64_t j
     QMCD__PUT("jobs_open", jobs_open);
     QMCD__PUT("job_memory_reserved_bytes", s->memory_reserved);
     QMCD__PUT("job_memory_waiting", s->memory_waiting);
+    QMCD__PUT("sessions_open", s->sessions_open);
+    QMCD__PUT("sessions_parked_now", s->sessions_parked_now);
+    QMCD__PUT("session_memory_reserved_bytes", s->sessions_memory);
     for (size_t i = 0; i < sizeof request_names / sizeof request_names[0]; i++) {
         /* only what clients send: requests_HELLO, requests_PING, ...,
          * requests_SHM_RELEASE; a message added to the map appears here */
         if (request_names[i].dir == 'C')
-            QMCD__PUT(request_names[i].name, s->requests[request_names[i].code & 31]);
+            QMCD__PUT(request_names[i].name, s->requests[request_names[i].code]);
     }
     QMCD__PUT("latency_count", s->lat_count);
     QMCD__PUT("latency_p50_us", qmcd_stats_quantile_us(s, 0.50));

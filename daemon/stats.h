@@ -40,7 +40,24 @@
     X(cancel_refusals, "refused_cancels_per_conn")          \
     X(memory_refusals, "refused_job_memory")                \
     X(memory_waits, "job_memory_waits")                     \
-    X(memory_backfills, "job_memory_backfills")
+    X(memory_backfills, "job_memory_backfills")             \
+    X(sessions_opened, "sessions_opened")                   \
+    X(sessions_done, "sessions_done")                       \
+    X(sessions_failed, "sessions_failed")                   \
+    X(sessions_closed, "sessions_closed")                   \
+    X(sessions_parked, "sessions_parked")                   \
+    X(sessions_resumed, "sessions_resumed")                 \
+    X(sessions_expired, "sessions_expired")                 \
+    X(sessions_refused, "refused_sessions")                 \
+    X(session_values_refused, "refused_session_values")     \
+    X(session_batches, "session_batches")                   \
+    X(session_values, "session_values")                     \
+    X(session_nonfinite, "session_nonfinite_values")
+
+/* Message type codes counted in requests[]: every code is below it
+ * (stats.c asserts it for each message of QMC_MSG_MAP), the same bound
+ * as the dispatch table's (server.h, QMCD_ROUTE_TYPES). */
+#define QMCD_STATS_TYPES 64
 
 /* Requests answered in one loop turn whose latency is recorded when the
  * turn ends, with one clock read for all of them (qmcd_stats_end_turn). */
@@ -58,7 +75,10 @@ typedef struct qmcd_stats {
      * (the pool's; copied in, like memory_waits, when STATS is asked). */
     uint64_t memory_reserved;
     uint64_t memory_waiting;   /* gauge: 1 while a job waits for its memory */
-    uint64_t requests[32];     /* by message type code */
+    /* Gauges kept by session_store.c: sessions open (attached or parked),
+     * of them parked, and the bytes they reserve. */
+    uint64_t sessions_open, sessions_parked_now, sessions_memory;
+    uint64_t requests[QMCD_STATS_TYPES]; /* by message type code */
     uint64_t lat[QMCD_LAT_BUCKETS];
     uint64_t lat_count;
     uint64_t lat_sum_us;       /* sum of the recorded latencies */

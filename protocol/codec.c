@@ -238,6 +238,37 @@ int qmc_proto_encode_chunk_prefix(uint64_t request_id, uint64_t first, uint32_t 
     return (int)prefix;
 }
 
+int qmc_proto_encode_session_values_prefix(uint64_t request_id,
+                                           const qmc_msg_session_values *v, uint8_t *buf,
+                                           size_t cap)
+{
+    if (v == NULL || v->transport != QMC_TRANSPORT_INLINE)
+        return QMC_EINVAL;
+    qmc_msg m = {.type = QMC_MSG_SESSION_VALUES, .request_id = request_id};
+    m.u.session_values = *v;
+    static const uint8_t no_data[1];
+    m.u.session_values.data = no_data; /* only measured: the caller writes the data */
+    size_t plen;
+    int err = encode_payload(&m, QMC_PROTO_VERSION_MAX, NULL, 0, &plen);
+    if (err)
+        return err;
+    const size_t prefix = QMC_PROTO_HEADER_BYTES + plen - v->data_len;
+    if (buf == NULL || cap < prefix)
+        return QMC_ETOOBIG;
+    /* The layout itself writes the fields: its data put finds no room
+     * (the cursor ends at the prefix) and is dropped, everything before it
+     * is written - one layout, not a copy of it here. */
+    qmc__io io = {.decode = 0,
+                  .wr = qmc__wr_make(buf + QMC_PROTO_HEADER_BYTES,
+                                     prefix - QMC_PROTO_HEADER_BYTES),
+                  .version = QMC_PROTO_VERSION_MAX};
+    qmc__proto_layout(QMC_MSG_SESSION_VALUES)->io(&io, &m);
+    if (io.err)
+        return io.err;
+    put_header(buf, QMC_MSG_SESSION_VALUES, request_id, (uint32_t)plen);
+    return (int)prefix;
+}
+
 double qmc_proto_f64_at(const qmc_f64s *list, uint32_t i)
 {
     if (list == NULL || i >= list->count)

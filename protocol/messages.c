@@ -96,6 +96,18 @@ static int job_state_ok(uint32_t v)
     }
 }
 
+/* qmc_smoothness: analytic 0 .. singular 3 (qmc/integrand.h). */
+static int smoothness_ok(uint32_t v)
+{
+    return v <= QMC_SMOOTH_SINGULAR;
+}
+
+/* qmc_session_end: QMC_SESSION_END_MAP, numbered from 0 (qmc/session.h). */
+static int session_end_ok(uint32_t v)
+{
+    return v < 0 QMC_SESSION_END_MAP(COUNT_ONE);
+}
+
 /* Methods and samplers are numbered by their position in the table. */
 static int method_ok(uint32_t v)
 {
@@ -181,7 +193,14 @@ enum {
     FIXED_SHM_RELEASE = 4,
     FIXED_AUTH_CHALLENGE = 4 + QMC_PROTO_AUTH_NONCE_BYTES,
     FIXED_AUTH_RESPONSE = QMC_PROTO_AUTH_NONCE_BYTES + QMC_PROTO_AUTH_MAC_BYTES,
-    FIXED_AUTH_OK = QMC_PROTO_AUTH_MAC_BYTES
+    FIXED_AUTH_OK = QMC_PROTO_AUTH_MAC_BYTES,
+    FIXED_SESSION_OPEN = 112,
+    FIXED_SESSION_OPENED = 40 + QMC_PROTO_SESSION_TOKEN_BYTES,
+    FIXED_SESSION_BATCH = 44,
+    FIXED_SESSION_VALUES = 40,
+    FIXED_SESSION_REPORT = 112,
+    FIXED_SESSION_RESUME = 16 + QMC_PROTO_SESSION_TOKEN_BYTES,
+    FIXED_SESSION_CLOSE = 8 + QMC_PROTO_SESSION_TOKEN_BYTES
 };
 
 static void io_hello(qmc__io *io, qmc_msg *m)
@@ -499,6 +518,12 @@ static void io_fixed_bytes(qmc__io *io, uint8_t *bytes, size_t n)
     qmc__wr_bytes(&io->wr, bytes, n);
 }
 
+/* A session's token: 32 opaque bytes held in the message. */
+static void io_token(qmc__io *io, uint8_t *token)
+{
+    io_fixed_bytes(io, token, QMC_PROTO_SESSION_TOKEN_BYTES);
+}
+
 static void io_auth_challenge(qmc__io *io, qmc_msg *m)
 {
     qmc_msg_auth_challenge *a = &m->u.challenge;
@@ -519,6 +544,192 @@ static void io_auth_response(qmc__io *io, qmc_msg *m)
 static void io_auth_ok(qmc__io *io, qmc_msg *m)
 {
     io_fixed_bytes(io, m->u.auth_ok.mac, sizeof m->u.auth_ok.mac);
+}
+
+/* ---- integration sessions (version 5) ------------------------------------------- */
+
+/* A session's name: text of at most QMC_SESSION_NAME_BYTES - 1 bytes held
+ * NUL-terminated in a char[QMC_SESSION_NAME_BYTES]. */
+static void io_session_name(qmc__io *io, char *name)
+{
+    qmc_str s = {name, 0};
+    if (!io->decode) {
+        const char *nul = memchr(name, '\0', QMC_SESSION_NAME_BYTES);
+        if (!nul) {
+            qmc__io_invalid(io);
+            return;
+        }
+        s.len = (uint32_t)(nul - name);
+    }
+    qmc__io_str(io, &s, QMC_SESSION_NAME_BYTES - 1, QMC__STR_TEXT);
+    if (io->decode) {
+        memset(name, 0, QMC_SESSION_NAME_BYTES);
+        if (io->err == 0 && s.len)
+            memcpy(name, s.ptr, s.len);
+    }
+}
+
+/* SESSION_OPEN: the session spec (qmc_session_spec without the in-process
+ * interrupt hook) and the transport batches should take.  Dims, parts and
+ * budgets are the daemon's to check (qmc_session_new), as INTEGRATE leaves
+ * them to qmc_job_new. */
+static void io_session_open(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_open *o = &m->u.session_open;
+    qmc_session_spec *s = &o->spec;
+    qmc_integrate_spec *in = &s->integrate;
+    IO_ENUM(io, in->method, method_ok);
+    IO_ENUM(io, s->smoothness, smoothness_ok);
+    IO_ENUM(io, o->transport, transport_ok);
+    qmc__io_bool(io, &in->n_given);
+    qmc__io_u32(io, &s->dims);
+    qmc__io_u32(io, &in->n_axis);
+    qmc__io_bool(io, &s->has_exact);
+    qmc__io_zero(io, 3);
+    qmc__io_u32(io, &s->part_k);
+    qmc__io_u32(io, &s->part_p);
+    qmc__io_u64(io, &in->max_evals);
+    qmc__io_u64(io, &in->max_memory);
+    qmc__io_u64(io, &s->max_batch);
+    qmc__io_f64_finite(io, &in->tol_abs);
+    qmc__io_f64_finite(io, &in->tol_rel);
+    qmc__io_f64_finite(io, &s->exact);
+    io_sampling(io, &in->sampling, 1);
+    io_session_name(io, s->name);
+    if (io->decode)
+        memset(&in->interrupt, 0, sizeof in->interrupt); /* in-process only */
+}
+
+static void io_session_opened(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_opened *o = &m->u.session_opened;
+    qmc__io_u64(io, &o->session_id);
+    io_token(io, o->token);
+    qmc__io_u32(io, &o->dims);
+    qmc__io_zero(io, 4);
+    qmc__io_u64(io, &o->max_batch);
+    qmc__io_u64(io, &o->memory_bytes);
+    qmc__io_u64(io, &o->park_ms);
+}
+
+/* SESSION_BATCH: a piece of whole points inside its batch; inline the
+ * coordinates follow (at most a chunk's bytes), through the ring they are
+ * in the slot named and the piece's values must fit after them in a slot
+ * of the largest size. */
+static void io_session_batch(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_batch *b = &m->u.session_batch;
+    qmc__io_u64(io, &b->seq);
+    qmc__io_u64(io, &b->count);
+    qmc__io_u64(io, &b->first);
+    qmc__io_u32(io, &b->points);
+    qmc__io_u32(io, &b->dims);
+    IO_ENUM(io, b->transport, transport_ok);
+    qmc__io_zero(io, 3);
+    qmc__io_u32(io, &b->slot);
+    qmc__io_u32(io, &b->data_len);
+    if (io->err || io->rd.bad)
+        return;
+    const uint64_t bytes = (uint64_t)b->points * b->dims * 8;
+    const int ring = b->transport == QMC_TRANSPORT_SHM;
+    if (b->points == 0 || b->dims == 0 || b->first > b->count ||
+        b->points > b->count - b->first || bytes != b->data_len ||
+        (ring ? b->slot >= QMC_PROTO_SHM_MAX_SLOTS ||
+                    bytes + 8ull * b->points > QMC_PROTO_SHM_MAX_SLOT_BYTES
+              : b->slot != 0 || bytes > QMC_PROTO_CHUNK_BYTES)) {
+        qmc__io_invalid(io);
+        return;
+    }
+    if (ring) {
+        if (io->decode)
+            b->data = NULL;
+        return;
+    }
+    qmc__io_blob(io, &b->data, b->data_len);
+}
+
+/* SESSION_VALUES: values of whole points; inline they follow, through the
+ * ring they sit after the piece's points in its slot. */
+static void io_session_values(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_values *v = &m->u.session_values;
+    qmc__io_u64(io, &v->session_id);
+    qmc__io_u64(io, &v->seq);
+    qmc__io_u64(io, &v->first);
+    qmc__io_u32(io, &v->count);
+    IO_ENUM(io, v->transport, transport_ok);
+    qmc__io_zero(io, 3);
+    qmc__io_u32(io, &v->slot);
+    qmc__io_u32(io, &v->data_len);
+    if (io->err || io->rd.bad)
+        return;
+    const int ring = v->transport == QMC_TRANSPORT_SHM;
+    if (v->count == 0 ||
+        (ring ? v->slot >= QMC_PROTO_SHM_MAX_SLOTS || v->data_len != 0 ||
+                    v->count > QMC_PROTO_SHM_MAX_SLOT_BYTES / 8
+              : v->slot != 0 || v->count > QMC_PROTO_SESSION_MAX_VALUES ||
+                    v->data_len != 8 * v->count)) {
+        qmc__io_invalid(io);
+        return;
+    }
+    if (ring) {
+        if (io->decode)
+            v->data = NULL;
+        return;
+    }
+    qmc__io_blob(io, &v->data, v->data_len);
+}
+
+/* SESSION_REPORT: qmc_session_status's report.  The flags are the running
+ * result's, told as the version defines them; err is a failed session's
+ * error and only its. */
+static void io_session_report(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_report *r = &m->u.session_report;
+    qmc_session_report *p = &r->report;
+    qmc_result *res = &p->running;
+    qmc__io_u64(io, &r->session_id);
+    qmc__io_u64(io, &p->batches);
+    qmc__io_u64(io, &p->evals);
+    qmc__io_u64(io, &p->nonfinite);
+    IO_ENUM(io, p->end, session_end_ok);
+    qmc__io_bool(io, &p->has_estimate);
+    IO_ENUM(io, res->error_kind, kind3_ok);
+    qmc__io_zero(io, 1);
+    io_result_flags(io, &res->flags);
+    int32_t err = p->err;
+    qmc__io_i32(io, &err);
+    p->err = err;
+    qmc__io_u32(io, &res->dims);
+    qmc__io_u64(io, &res->n);
+    qmc__io_u64(io, &res->evals);
+    qmc__io_u64(io, &res->nonfinite);
+    qmc__io_f64(io, &res->estimate);
+    qmc__io_f64(io, &res->error);
+    qmc__io_f64(io, &res->ci_low);
+    qmc__io_f64(io, &res->ci_high);
+    qmc__io_f64(io, &res->abs_integral);
+    if (io->err == 0 && !io->rd.bad &&
+        (p->err > 0 || (p->end == QMC_SESSION_FAILED) != (p->err != 0)))
+        qmc__io_invalid(io);
+}
+
+static void io_session_resume(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_ref *r = &m->u.session_ref;
+    qmc__io_u64(io, &r->session_id);
+    io_token(io, r->token);
+    IO_ENUM(io, r->transport, transport_ok);
+    qmc__io_zero(io, 7);
+}
+
+static void io_session_close(qmc__io *io, qmc_msg *m)
+{
+    qmc_msg_session_ref *r = &m->u.session_ref;
+    qmc__io_u64(io, &r->session_id);
+    io_token(io, r->token);
+    if (io->decode)
+        r->transport = QMC_TRANSPORT_INLINE; /* not on the wire */
 }
 
 /* ---- the table ---------------------------------------------------------------
@@ -556,6 +767,18 @@ static void io_auth_ok(qmc__io *io, qmc_msg *m)
 #define LAYOUT_AUTH_RESPONSE io_auth_response, FIXED_AUTH_RESPONSE, FIXED_AUTH_RESPONSE
 #define LAYOUT_AUTH_OK io_auth_ok, FIXED_AUTH_OK, FIXED_AUTH_OK
 #define LAYOUT_PIXELS io_pixels, FIXED_PIXELS, FIXED_PIXELS
+#define LAYOUT_SESSION_OPEN                                                     \
+    io_session_open, FIXED_SESSION_OPEN + STR16,                                \
+        FIXED_SESSION_OPEN + STR16 + QMC_SESSION_NAME_BYTES - 1
+#define LAYOUT_SESSION_OPENED io_session_opened, FIXED_SESSION_OPENED, FIXED_SESSION_OPENED
+#define LAYOUT_SESSION_BATCH \
+    io_session_batch, FIXED_SESSION_BATCH, FIXED_SESSION_BATCH + QMC_PROTO_CHUNK_BYTES
+#define LAYOUT_SESSION_VALUES \
+    io_session_values, FIXED_SESSION_VALUES, FIXED_SESSION_VALUES + QMC_PROTO_CHUNK_BYTES
+#define LAYOUT_SESSION_REPORT io_session_report, FIXED_SESSION_REPORT, FIXED_SESSION_REPORT
+#define LAYOUT_SESSION_RESULT LAYOUT_JOB_RESULT
+#define LAYOUT_SESSION_RESUME io_session_resume, FIXED_SESSION_RESUME, FIXED_SESSION_RESUME
+#define LAYOUT_SESSION_CLOSE io_session_close, FIXED_SESSION_CLOSE, FIXED_SESSION_CLOSE
 
 #define ROW_FIELDS(fn, lo, hi) (lo), (hi), fn
 #define ROW_EXPAND(...) ROW_FIELDS(__VA_ARGS__)

@@ -164,6 +164,7 @@ void qmc_client_close(qmc_client *c)
         return;
     if (c->fd >= 0)
         close(c->fd);
+    qmc__client_sessions_detach(c);
     qmc__client_shm_unmap(c);
     qmc__client_wipe_key(c);
     free(c);

@@ -5,7 +5,8 @@
  * (bounded buffers, deadlines, error text); client.c is the handshake,
  * ping, stats and accessors; points.c the POINTS stream (and the stream
  * of one request, which PIXELS shares); pixels.c PIXELS tiles; shm.c the
- * shared-memory ring; jobs.c the INTEGRATE family.  Cross-file names are qmc__client_*; nothing here is
+ * shared-memory ring; jobs.c the INTEGRATE family; session.c integration
+ * sessions.  Cross-file names are qmc__client_*; nothing here is
  * public API, but the unit test includes it to reach the parser and the
  * allocator seam.
  */
@@ -71,6 +72,9 @@ typedef struct qmc__client_ring {
     uint32_t slots, slot_bytes;
     uint32_t next;                    /* the slot the next chunk must name */
     uint32_t held;                    /* chunks received, not yet released */
+    uint32_t pinned;                  /* of them, slots a session's batch still
+                                         needs (its values go there): while any
+                                         is, nothing is released */
 } qmc__client_ring;
 
 /* The ring qmc_client_points* attach by themselves on a Unix socket: 8
@@ -106,6 +110,8 @@ struct qmc_client {
     uint8_t auth_key[QMC_AUTH_KEY_MAX_BYTES];
     size_t auth_key_bytes;
     int authenticated;
+    /* open session handles (session.c), whose frames are filed as they come */
+    qmc_client_session *sessions;
 };
 
 /* The allocator seam: qmc_client_connect passes malloc; the unit test
@@ -227,7 +233,35 @@ void qmc__client_wipe_key(qmc_client *c);
 int qmc__client_authenticate(qmc_client *c, uint64_t hello_id, uint16_t version_min,
                              uint16_t version_max, qmc_msg *m);
 
+/* ---- shm.c, for sessions -------------------------------------------------------- */
+
+/* Attaches a ring of slots x slot_bytes if this client should and can (as
+ * qmc__client_shm_auto, which it is with other sizes). */
+int qmc__client_shm_attach_sized(qmc_client *c, uint32_t slots, uint32_t slot_bytes);
+
+/* ---- conn.c, for sessions ------------------------------------------------------- */
+
+/* Sends head[0 .. head_len) then data[0 .. data_len) as one frame's bytes
+ * (a zero-copy prefix and its data), whole, before the deadline.  Errors
+ * close the connection. */
+int qmc__client_send_parts(qmc_client *c, const void *head, size_t head_len, const void *data,
+                           size_t data_len, const char *what);
+
+/* ---- session.c ------------------------------------------------------------------ */
+
+/* If msg belongs to one of this client's sessions (its request, or the
+ * values it sent), files it and returns 1; 0 for other frames; a negative
+ * error for a frame that breaks the protocol (the connection is closed). */
+int qmc__client_file_session(qmc_client *c, const qmc_msg *msg);
+/* qmc_client_close: the sessions lose their connection (handles freed by
+ * the caller stay freed). */
+void qmc__client_sessions_detach(qmc_client *c);
+
 /* ---- jobs.c --------------------------------------------------------------------- */
+
+/* A JOB_RESULT's (or SESSION_RESULT's) fields into a result. */
+void qmc__client_copy_result(qmc_client_result *r, const qmc_msg_job_result *m);
+
 
 /* If msg belongs to one of this client's jobs, files it and returns 1;
  * returns 0 for other frames, or a negative error (malformed result). */

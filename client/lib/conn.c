@@ -197,6 +197,45 @@ int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd)
     return 0;
 }
 
+int qmc__client_send_parts(qmc_client *c, const void *head, size_t head_len, const void *data,
+                           size_t data_len, const char *what)
+{
+    const int64_t deadline = qmc__client_deadline(c);
+    size_t done = 0;
+    const size_t total = head_len + data_len;
+    while (done < total) {
+        struct iovec iov[2];
+        int n = 0;
+        if (done < head_len) {
+            iov[n].iov_base = (char *)(uintptr_t)head + done;
+            iov[n++].iov_len = head_len - done;
+        }
+        size_t in_data = done > head_len ? done - head_len : 0;
+        if (data_len > in_data) {
+            iov[n].iov_base = (char *)(uintptr_t)data + in_data;
+            iov[n++].iov_len = data_len - in_data;
+        }
+        struct msghdr mh;
+        memset(&mh, 0, sizeof mh);
+        mh.msg_iov = iov;
+        mh.msg_iovlen = (size_t)n;
+        ssize_t w = sendmsg(c->fd, &mh, MSG_NOSIGNAL);
+        if (w > 0) {
+            done += (size_t)w;
+            continue;
+        }
+        int err = w < 0 ? errno : EPIPE;
+        if (err == EINTR)
+            continue;
+        if (err == EAGAIN || err == EWOULDBLOCK)
+            err = -qmc__client_wait_fd(c->fd, POLLOUT, deadline);
+        if (err)
+            return qmc__client_break(c, -err, "sending %s: %s%s", what, qmc_strerror(-err),
+                                     err == ETIMEDOUT ? " (the server does not read)" : "");
+    }
+    return 0;
+}
+
 /* Reads more bytes into the buffer; 0, or a negative error (not yet
  * reported to c). */
 static int fill(qmc_client *c, int64_t deadline_ms)
@@ -270,6 +309,8 @@ int qmc__client_read(qmc_client *c, int64_t deadline_ms, int keep_on_timeout,
 int qmc__client_other(qmc_client *c, const qmc_msg *msg, uint64_t waiting_for)
 {
     int filed = qmc__client_file_job(c, msg);
+    if (filed == 0)
+        filed = qmc__client_file_session(c, msg);
     if (filed != 0)
         return filed < 0 ? filed : 0;
     if (msg->type == QMC_MSG_ERROR && msg->request_id == 0) {

@@ -31,7 +31,7 @@ static qmc__client_job *find_by_id(qmc_client *c, uint64_t job_id)
     return NULL;
 }
 
-static void copy_result(qmc_client_result *r, const qmc_msg_job_result *m)
+void qmc__client_copy_result(qmc_client_result *r, const qmc_msg_job_result *m)
 {
     memset(r, 0, sizeof *r);
     r->job_id = m->job_id;
@@ -60,7 +60,7 @@ int qmc__client_file_job(qmc_client *c, const qmc_msg *msg)
                                      "%llu on the request of job %llu",
                                      (unsigned long long)msg->u.result.job_id,
                                      (unsigned long long)j->job_id);
-        copy_result(&j->result, &msg->u.result);
+        qmc__client_copy_result(&j->result, &msg->u.result);
         j->finished = 1;
         return 1;
     case QMC_MSG_ERROR:

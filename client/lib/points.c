@@ -55,7 +55,10 @@ int qmc__client_stream_one(qmc_client *c, qmc_msg *req, qmc_points_transport *tr
     if (count > QMC__CLIENT_AUTO_SLOT_BYTES / (row_bytes ? row_bytes : 1) &&
         (err = qmc__client_shm_auto(c)) != 0)
         return err;
-    const int shm = c->ring.base != NULL && row_bytes <= c->ring.slot_bytes;
+    /* Not while a session's batch holds slots: release is oldest first,
+     * so the stream's slots could not go back until that batch is
+     * answered, and the stream would stall on a full ring. */
+    const int shm = c->ring.base != NULL && !c->ring.pinned && row_bytes <= c->ring.slot_bytes;
     *transport = shm ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
     qmc_msg m = *req;
     uint64_t id;

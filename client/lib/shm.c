@@ -1,8 +1,10 @@
 /*
- * shm.c - the shared-memory ring for POINTS data (PROTOCOL.md section 10).
+ * shm.c - the shared-memory ring for POINTS data and session batches
+ * (PROTOCOL.md sections 10 and 6.21).
  *
  * The ring is a memfd: sized, sealed against shrinking and growing, mapped
- * read-only with every page faulted in here (so the pages are ours - the
+ * (writable: a session writes its values into its batch's slot) with every
+ * page faulted in here (so the pages are ours - the
  * server refuses a ring with holes), and passed to the server with SCM_RIGHTS in
  * the sendmsg that carries SHM_ATTACH.  The server then writes each chunk
  * into the next slot and sends a small POINTS_SHM_CHUNK frame naming it
@@ -59,8 +61,11 @@ static int attach(qmc_client *c, uint32_t slots, uint32_t slot_bytes)
     if (fd < 0)
         return fd;
     /* MAP_POPULATE faults every page in now: the pages are allocated (and
-     * charged) here, as the server insists, not at its first write. */
-    void *base = mmap(NULL, bytes, PROT_READ, MAP_SHARED | MAP_POPULATE, fd, 0);
+     * charged) here, as the server insists, not at its first write.  The
+     * mapping is made before SHM_ATTACH, when the server's seal against
+     * new writable mappings is not there yet: sessions write their values
+     * through it. */
+    void *base = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, fd, 0);
     if (base == MAP_FAILED) {
         int err = -errno;
         close(fd);
@@ -94,6 +99,7 @@ static int attach(qmc_client *c, uint32_t slots, uint32_t slot_bytes)
     c->ring.slot_bytes = slot_bytes;
     c->ring.next = 0;
     c->ring.held = 0;
+    c->ring.pinned = 0;
     return 0;
 }
 
@@ -138,9 +144,14 @@ uint32_t qmc_client_shm_slot_bytes(const qmc_client *c)
 
 int qmc__client_shm_auto(qmc_client *c)
 {
+    return qmc__client_shm_attach_sized(c, QMC__CLIENT_AUTO_SLOTS, QMC__CLIENT_AUTO_SLOT_BYTES);
+}
+
+int qmc__client_shm_attach_sized(qmc_client *c, uint32_t slots, uint32_t slot_bytes)
+{
     if (c->ring.base || c->shm_off || !c->unix_socket || c->version < QMC_PROTO_VERSION_SHM)
         return 0;
-    int err = attach(c, QMC__CLIENT_AUTO_SLOTS, QMC__CLIENT_AUTO_SLOT_BYTES);
+    int err = attach(c, slots, slot_bytes);
     if (err == 0)
         return 0;
     c->shm_off = 1; /* refused or impossible here: inline from now on */
@@ -152,7 +163,9 @@ int qmc__client_shm_auto(qmc_client *c)
 
 int qmc__client_shm_release(qmc_client *c)
 {
-    if (c->ring.held == 0 || c->fd < 0)
+    /* Release is oldest first: a slot a session's batch still needs holds
+     * back every later one too, until its values are sent. */
+    if (c->ring.held == 0 || c->ring.pinned || c->fd < 0)
         return 0;
     qmc_msg m;
     memset(&m, 0, sizeof m);

@@ -75,6 +75,7 @@
 #include "qmc/result.h"
 #include "qmc/sampling.h"
 #include "qmc/seq.h"
+#include "qmc/session.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -305,6 +306,151 @@ QMC_MUST_CHECK int qmc_client_cancel(qmc_client *c, uint64_t job_id);
 typedef int (*qmc_client_stat_fn)(void *ctx, const char *name, uint64_t value);
 QMC_MUST_CHECK int qmc_client_stats(qmc_client *c, qmc_client_stat_fn on_stat,
                                     void *ctx);
+
+/* ---- integration sessions: the caller evaluates f (protocol version 5) -------------- */
+
+/*
+ * A session is an integration whose integrand this program evaluates: the
+ * server hands out batches of points, the program returns f at them, and
+ * the server keeps the estimate, the error bar, the flags and the stopping
+ * rule (docs/SESSIONS.md; PROTOCOL.md section 6.21).  It is the in-process
+ * ask/tell API of qmc/session.h across a connection, with the same bytes:
+ *
+ *     qmc_client_session *s;
+ *     if (qmc_client_session_open(c, &spec, &s) != 0) ...
+ *     for (;;) {
+ *         qmc_session_batch b;
+ *         if (qmc_client_session_next(s, &b) != 0) ...   // the connection failed
+ *         if (b.count == 0) break;                        // done: b.end says why
+ *         double *v = qmc_client_session_values(s);       // room for b.count values
+ *         for (size_t i = 0; i < b.count; i++) v[i] = my_f(b.points + i * b.dims);
+ *         if (qmc_client_session_tell(s, b.seq, v, b.count) != 0) ...
+ *     }
+ *     qmc_client_session_result(s, &res);                 // as qmc_client_integrate's
+ *     qmc_client_session_close(s);
+ *
+ * or, with a callback, qmc_client_session_run.  Over a unix: endpoint the
+ * batches travel through a shared-memory ring (attached by itself, sized
+ * for the session's batches, unless the client has one or has turned it
+ * off with qmc_client_attach_shm(c, 0, 0)); points then sit in the ring
+ * and the values buffer too, so nothing is copied through the socket.
+ * Over TCP, and for batches that do not fit the ring, they come inline.
+ *
+ * A session belongs to the identity that opened it (the user on a Unix
+ * socket, the address and the key over TCP) and outlives its connection:
+ * when the connection is lost, the server keeps it for a while (the
+ * OPENED park_ms) and qmc_client_session_resume takes it up from another
+ * connection with its ticket; the batch it waits for is served again.
+ *
+ * A qmc_client_session belongs to its qmc_client and is used from the same
+ * thread; it must be freed (qmc_client_session_close or _free) by the
+ * caller, before or after qmc_client_close (which detaches it).  It holds
+ * one allocation for itself and, for batches that do not sit in the ring
+ * whole, buffers for a batch's points and values (at most the OPENED
+ * max_batch points).
+ */
+typedef struct qmc_client_session qmc_client_session;
+
+/* What resumes a session: its id and its token (keep it secret: with the
+ * identity that opened the session, it is the session). */
+typedef struct qmc_client_session_ticket {
+    uint64_t session_id;
+    uint8_t token[QMC_PROTO_SESSION_TOKEN_BYTES];
+} qmc_client_session_ticket;
+
+/*
+ * Opens a session on the server: spec as qmc_session_new takes it
+ * (spec->integrate.interrupt is not sent).  On success *out is the
+ * session, whose first batch is on its way.  Errors: QMC_ENOTSUP (a
+ * server older than protocol version 5; a part session, whose sums have
+ * no message yet), QMC_EINVAL (no spec), the server's refusal with its
+ * reason (QMC_EINVAL, QMC_EDIMS, QMC_EBUDGET, ... as qmc_session_new;
+ * QMC_ETOOBIG for its session and memory limits), QMC_ENOMEM, or a
+ * connection error.  *out is NULL on error.
+ */
+QMC_MUST_CHECK int qmc_client_session_open(qmc_client *c, const qmc_session_spec *spec,
+                                           qmc_client_session **out);
+
+/* The session's id and token, for qmc_client_session_resume. */
+void qmc_client_session_ticket_get(const qmc_client_session *s, qmc_client_session_ticket *out);
+
+/*
+ * Takes up a session of this identity from connection c (after its own
+ * connection was lost, or to take it over from one that still runs):
+ * *out is a new handle, whose next batch is the one the session waits
+ * for.  Errors: -ENOENT (no such session for this identity and token:
+ * unknown, ended, expired, or another's), QMC_ENOTSUP, a connection error.
+ */
+QMC_MUST_CHECK int qmc_client_session_resume(qmc_client *c,
+                                             const qmc_client_session_ticket *ticket,
+                                             qmc_client_session **out);
+
+/*
+ * The batch the session waits for, waiting for it to arrive: as
+ * qmc_session_ask, count 0 once the session is done (batch->end says why;
+ * then qmc_client_session_result).  Asking again before telling returns
+ * the same batch.  batch->points (count x dims, row-major) is valid until
+ * the next tell, close or free.  Errors: a connection error (the session
+ * is then parked on the server: resume it), -ENOTCONN.
+ */
+QMC_MUST_CHECK int qmc_client_session_next(qmc_client_session *s, qmc_session_batch *batch);
+
+/* Room for the current batch's count values, valid until the next tell:
+ * in the ring slot that holds the batch when there is one, so that tell
+ * sends nothing but a small frame.  NULL when no batch is waiting. */
+double *qmc_client_session_values(qmc_client_session *s);
+
+/*
+ * f at the points of batch seq, values[0 .. count) (from anywhere; from
+ * qmc_client_session_values nothing is copied).  Sends them and waits for
+ * the server's report on them (qmc_client_session_report).  NaN and
+ * infinities are sent as they are: the server counts and flags them.
+ * Errors: QMC_EINVAL for a seq or count that is not the waiting batch's
+ * (nothing sent), the server's refusal with its reason (the batch still
+ * waits), a connection error.
+ */
+QMC_MUST_CHECK int qmc_client_session_tell(qmc_client_session *s, uint64_t seq,
+                                           const double *values, size_t count);
+
+/* The server's last report (zeroed before the first). */
+void qmc_client_session_report(const qmc_client_session *s, qmc_session_report *out);
+
+/*
+ * The final answer once next said done: 0 with *out as
+ * qmc_client_integrate fills it, or the session's error (the server's
+ * code and reason: a failed integrator, a session closed or taken over
+ * elsewhere).  QMC_EAGAIN while it runs (*out zeroed).
+ */
+QMC_MUST_CHECK int qmc_client_session_result(const qmc_client_session *s,
+                                             qmc_client_result *out);
+
+/*
+ * Ends the session on the server (SESSION_CLOSE, when it still runs there
+ * and its connection is up) and frees s.  Returns 0 or the error of that
+ * exchange (s is freed whatever it returns).  NULL is a no-op.
+ */
+int qmc_client_session_close(qmc_client_session *s);
+
+/* Frees s without telling the server, which keeps the session (resumable
+ * by its ticket: once this connection is gone, or at once as a takeover).
+ * Frames still coming for it on this connection are dropped.  NULL is a
+ * no-op. */
+void qmc_client_session_free(qmc_client_session *s);
+
+/* f at count points of dims coordinates (row-major) into values[0 ..
+ * count); return 0 to go on, anything else to stop. */
+typedef int (*qmc_client_integrand_fn)(void *ctx, const double *points, size_t count,
+                                       uint32_t dims, double *values);
+
+/*
+ * Runs a whole session with a callback: open, f on every batch, result,
+ * close.  Returns 0 with *out filled, or the first error: the server's,
+ * a connection's, or f's own non-zero return (the session is then closed
+ * on the server).  *out is zeroed on error.
+ */
+QMC_MUST_CHECK int qmc_client_session_run(qmc_client *c, const qmc_session_spec *spec,
+                                          qmc_client_integrand_fn f, void *ctx,
+                                          qmc_client_result *out);
 
 #ifdef __cplusplus
 }

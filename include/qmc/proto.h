@@ -41,6 +41,7 @@
 #include "qmc/job.h"
 #include "qmc/pixel.h"
 #include "qmc/seq.h"
+#include "qmc/session.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -52,7 +53,7 @@ extern "C" {
 /* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
  * the frame format): 1 is the base set; 2 adds the shared-memory transport
  * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
-#define QMC_PROTO_VERSION_MAX 4u
+#define QMC_PROTO_VERSION_MAX 5u
 #define QMC_PROTO_VERSION_SHM 2u
 /* Version 3 adds the key-based authentication of the handshake
  * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
@@ -63,12 +64,22 @@ extern "C" {
  * version the connection negotiated (qmc_proto_result_flags_for). */
 #define QMC_PROTO_VERSION_FLAGS3 3u
 #define QMC_PROTO_RESULT_FLAGS_V1 0x00000fffu   /* versions 1 and 2 */
-#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3 and 4 */
+#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3, 4 and 5 */
 /* Version 4 adds PIXELS (a tile of a pixel sampler, qmc/pixel.h),
  * answered by the chunk and END frames POINTS uses. */
 #define QMC_PROTO_VERSION_PIXELS 4u
 /* Version 4 also adds scramble 4, fast-owen, to POINTS and INTEGRATE. */
 #define QMC_PROTO_VERSION_FAST_OWEN 4u
+/* Version 5 adds integration sessions (SESSION_OPEN .. SESSION_CLOSE,
+ * qmc/session.h): the client evaluates f at the points the server hands
+ * out, the server keeps the estimate and the stopping rule. */
+#define QMC_PROTO_VERSION_SESSIONS 5u
+/* Bytes of a session's token (SESSION_OPENED): from the server's
+ * cryptographic random number generator, 256 bits. */
+#define QMC_PROTO_SESSION_TOKEN_BYTES 32u
+/* SESSION_VALUES inline carries at most this many values (a frame's data,
+ * like a chunk's, stays within QMC_PROTO_CHUNK_BYTES). */
+#define QMC_PROTO_SESSION_MAX_VALUES (QMC_PROTO_CHUNK_BYTES / 8u)
 /* Bytes of each side's nonce and of an HMAC-SHA256 tag in the handshake. */
 #define QMC_PROTO_AUTH_NONCE_BYTES 32u
 #define QMC_PROTO_AUTH_MAC_BYTES 32u
@@ -117,7 +128,15 @@ extern "C" {
     X(AUTH_CHALLENGE, 22, 'S')     \
     X(AUTH_RESPONSE, 23, 'C')      \
     X(AUTH_OK, 24, 'S')            \
-    X(PIXELS, 25, 'C')
+    X(PIXELS, 25, 'C')             \
+    X(SESSION_OPEN, 26, 'C')       \
+    X(SESSION_OPENED, 27, 'S')     \
+    X(SESSION_BATCH, 28, 'S')      \
+    X(SESSION_VALUES, 29, 'C')     \
+    X(SESSION_REPORT, 30, 'S')     \
+    X(SESSION_RESULT, 31, 'S')     \
+    X(SESSION_RESUME, 32, 'C')     \
+    X(SESSION_CLOSE, 33, 'C')
 
 typedef enum qmc_msg_type {
 #define QMC__MSG_ENUM(name, code, dir) QMC_MSG_##name = (code),
@@ -292,6 +311,71 @@ typedef struct qmc_msg_job_result {
     qmc_str auto_reason;          /* <= QMC_PROTO_MAX_MESSAGE */
 } qmc_msg_job_result;
 
+/* Integration sessions (protocol version 5, PROTOCOL.md section 6.21):
+ * SESSION_OPEN starts one; every frame the server sends about it carries
+ * the SESSION_OPEN's request id (or the SESSION_RESUME's that took it
+ * over): SESSION_OPENED, then per batch its SESSION_BATCH pieces, and
+ * after the values a SESSION_REPORT; at the end SESSION_RESULT (or
+ * ERROR) ends the request.  SESSION_VALUES is not a request in flight:
+ * it names its session by id, and only a refusal answers it (ERROR with
+ * the SESSION_VALUES' own request id; the session goes on). */
+
+/* SESSION_OPEN: what qmc_session_new takes (spec.integrate.interrupt is
+ * not on the wire), and how batches should travel. */
+typedef struct qmc_msg_session_open {
+    qmc_session_spec spec;
+    qmc_points_transport transport;   /* the ring when one is attached */
+} qmc_msg_session_open;
+
+/* SESSION_OPENED: the session's name and the capability to resume it. */
+typedef struct qmc_msg_session_opened {
+    uint64_t session_id;
+    uint8_t token[QMC_PROTO_SESSION_TOKEN_BYTES];
+    uint32_t dims;
+    uint64_t max_batch;           /* the most points one batch may hold */
+    uint64_t memory_bytes;        /* what the server reserved for it */
+    uint64_t park_ms;             /* how long it waits for a SESSION_RESUME
+                                     once its connection is gone */
+} qmc_msg_session_opened;
+
+/* SESSION_BATCH: points [first, first + points) of batch seq, which has
+ * count points of dims coordinates (f64), inline (data) or in a ring slot
+ * (the same bytes at the slot's start; the values go right after them). */
+typedef struct qmc_msg_session_batch {
+    uint64_t seq, count, first;
+    uint32_t points, dims;
+    qmc_points_transport transport;
+    uint32_t slot;                /* ring: < QMC_PROTO_SHM_MAX_SLOTS; inline 0 */
+    uint32_t data_len;            /* points x dims x 8 */
+    const uint8_t *data;          /* inline: the coordinates (LE f64); ring: NULL */
+} qmc_msg_session_batch;
+
+/* SESSION_VALUES: f at points [first, first + count) of batch seq of
+ * session session_id, inline (data, count LE f64) or in the ring slot
+ * that carried those points, right after them. */
+typedef struct qmc_msg_session_values {
+    uint64_t session_id, seq, first;
+    uint32_t count;
+    qmc_points_transport transport;
+    uint32_t slot;                /* ring; inline 0 */
+    uint32_t data_len;            /* inline: count x 8; ring: 0 */
+    const uint8_t *data;
+} qmc_msg_session_values;
+
+/* SESSION_REPORT: the session's state after a batch (qmc_session_status). */
+typedef struct qmc_msg_session_report {
+    uint64_t session_id;
+    qmc_session_report report;
+} qmc_msg_session_report;
+
+/* SESSION_RESUME (transport as in SESSION_OPEN) and SESSION_CLOSE (no
+ * transport): a session of this identity, by id and token. */
+typedef struct qmc_msg_session_ref {
+    uint64_t session_id;
+    uint8_t token[QMC_PROTO_SESSION_TOKEN_BYTES];
+    qmc_points_transport transport;
+} qmc_msg_session_ref;
+
 typedef struct qmc_stat {
     qmc_str name;                 /* <= QMC_PROTO_MAX_NAME */
     uint64_t value;
@@ -324,7 +408,8 @@ typedef struct qmc_msg {
         qmc_msg_job_id job;           /* JOB_ACCEPTED, JOB_STATUS, JOB_CANCEL */
         qmc_msg_job_progress progress;
         qmc_msg_job_state state;
-        qmc_msg_job_result result;
+        qmc_msg_job_result result;    /* JOB_RESULT and SESSION_RESULT (job_id:
+                                         the session's id) */
         qmc_msg_stats_reply stats;    /* STATS has no payload */
         qmc_msg_error error;
         qmc_msg_shm shm;              /* SHM_ATTACH and SHM_OK */
@@ -333,6 +418,12 @@ typedef struct qmc_msg {
         qmc_msg_auth_challenge challenge;
         qmc_msg_auth_response response;
         qmc_msg_auth_ok auth_ok;
+        qmc_msg_session_open session_open;
+        qmc_msg_session_opened session_opened;
+        qmc_msg_session_batch session_batch;
+        qmc_msg_session_values session_values;
+        qmc_msg_session_report session_report;
+        qmc_msg_session_ref session_ref;  /* SESSION_RESUME, SESSION_CLOSE */
     } u;
 } qmc_msg;
 
@@ -402,6 +493,17 @@ uint32_t qmc_proto_result_flags_for(unsigned version, uint32_t flags);
 QMC_MUST_CHECK int qmc_proto_encode_chunk_prefix(uint64_t request_id, uint64_t first,
                                                  uint32_t points, uint32_t data_len,
                                                  uint8_t *buf, size_t cap);
+
+/*
+ * Zero-copy SESSION_VALUES (inline): writes the frame header and the fixed
+ * fields of *v (its data pointer is not read); the caller then sends
+ * v->data_len bytes of values (count little-endian f64) right after the
+ * returned length.  Returns the prefix length, QMC_EINVAL (a field the
+ * decoder would reject, or v not inline) or QMC_ETOOBIG.
+ */
+QMC_MUST_CHECK int qmc_proto_encode_session_values_prefix(uint64_t request_id,
+                                                          const qmc_msg_session_values *v,
+                                                          uint8_t *buf, size_t cap);
 
 /* Element i of a decoded (or encoder-side) list. */
 double qmc_proto_f64_at(const qmc_f64s *list, uint32_t i);

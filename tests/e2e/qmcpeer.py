@@ -33,7 +33,9 @@ MSG = dict(HELLO=1, HELLO_OK=2, PING=3, PONG=4, POINTS=5, POINTS_CHUNK=6, END=7,
            INTEGRATE=8, JOB_ACCEPTED=9, JOB_PROGRESS=10, JOB_RESULT=11,
            JOB_STATUS=12, JOB_STATE=13, JOB_CANCEL=14, STATS=15, STATS_REPLY=16,
            ERROR=17, SHM_ATTACH=18, SHM_OK=19, POINTS_SHM_CHUNK=20, SHM_RELEASE=21,
-           AUTH_CHALLENGE=22, AUTH_RESPONSE=23, AUTH_OK=24, PIXELS=25)
+           AUTH_CHALLENGE=22, AUTH_RESPONSE=23, AUTH_OK=24, PIXELS=25,
+           SESSION_OPEN=26, SESSION_OPENED=27, SESSION_BATCH=28, SESSION_VALUES=29,
+           SESSION_REPORT=30, SESSION_RESULT=31, SESSION_RESUME=32, SESSION_CLOSE=33)
 NAME = {v: k for k, v in MSG.items()}
 KIND = dict(sobol=1, halton=2, hammersley=3, random=4, stratified=5, lhs=6)
 SCRAMBLE = {"none": 0, "shift": 1, "owen": 2, "faure": 3, "fast-owen": 4}
@@ -52,8 +54,11 @@ RESULT_FLAGS_V1 = ["nonfinite", "heavy_tail", "not_pow2", "dims_past_good", "not
                    "error_unreliable", "zero_pdf"]
 RESULT_FLAGS_V3 = RESULT_FLAGS_V1 + ["few_nonzero", "zero_spread", "tail_untested",
                                      "unresolved", "mis_undersampled"]
-RESULT_FLAGS = {1: RESULT_FLAGS_V1, 2: RESULT_FLAGS_V1, 3: RESULT_FLAGS_V3, 4: RESULT_FLAGS_V3}
-NEWEST_VERSION = 4  # version 4 adds PIXELS (section 6.20), no flag bits
+RESULT_FLAGS = {1: RESULT_FLAGS_V1, 2: RESULT_FLAGS_V1, 3: RESULT_FLAGS_V3, 4: RESULT_FLAGS_V3,
+                5: RESULT_FLAGS_V3}
+# version 4 adds PIXELS (section 6.20), version 5 sessions (6.21); no flag bits
+NEWEST_VERSION = 5
+SESSION_ENDS = ["running", "converged", "complete", "budget", "cannot_tell", "failed"]
 PIXEL_SAMPLER = {"zsobol": 1, "padded-sobol": 2, "sobol": 3}
 
 
@@ -149,7 +154,7 @@ def decode(mtype, p, version=NEWEST_VERSION):
         d["job_id"], d["state"] = r.u("Q"), JOB_STATES.get(r.u("B"))
         r.take(7)
         d["evals"], d["seconds"] = r.u("Q"), r.u("d")
-    elif mtype == MSG["JOB_RESULT"]:
+    elif mtype in (MSG["JOB_RESULT"], MSG["SESSION_RESULT"]):
         d["job_id"] = r.u("Q")
         d["method_used"] = METHODS[r.u("B")]
         d["error_kind"], d["reference_kind"], d["cv_used"] = r.u("B"), r.u("B"), r.u("B")
@@ -188,6 +193,37 @@ def decode(mtype, p, version=NEWEST_VERSION):
         d["nonce"] = r.take(32)
     elif mtype == MSG["AUTH_OK"]:
         d["mac"] = r.take(32)
+    elif mtype == MSG["SESSION_OPENED"]:
+        d["session_id"], d["token"], d["dims"] = r.u("Q"), r.take(32), r.u("I")
+        if r.take(4) != bytes(4):
+            raise ValueError("reserved bytes in SESSION_OPENED")
+        d["max_batch"], d["memory_bytes"], d["park_ms"] = r.u("Q"), r.u("Q"), r.u("Q")
+    elif mtype == MSG["SESSION_BATCH"]:
+        for k in ("seq", "count", "first"):
+            d[k] = r.u("Q")
+        d["points"], d["dims"], d["transport"] = r.u("I"), r.u("I"), r.u("B")
+        if r.take(3) != bytes(3):
+            raise ValueError("reserved bytes in SESSION_BATCH")
+        d["slot"], d["data_len"] = r.u("I"), r.u("I")
+        if d["data_len"] != d["points"] * d["dims"] * 8 or d["points"] < 1 or \
+                d["first"] + d["points"] > d["count"]:
+            raise ValueError("SESSION_BATCH sizes disagree: %r" % d)
+        d["data"] = r.take(d["data_len"]) if d["transport"] == 0 else None
+    elif mtype == MSG["SESSION_REPORT"]:
+        d["session_id"], d["batches"], d["evals"], d["nonfinite"] = (r.u("Q"), r.u("Q"),
+                                                                    r.u("Q"), r.u("Q"))
+        d["end"] = SESSION_ENDS[r.u("B")]
+        d["has_estimate"], d["error_kind"] = r.u("B"), r.u("B")
+        r.take(1)
+        d["flags"], d["err"], d["dims"] = r.u("I"), r.u("i"), r.u("I")
+        defined = sum(1 << i for i in range(len(RESULT_FLAGS[version])))
+        if d["flags"] & ~defined:
+            raise ValueError("SESSION_REPORT flags %#x undefined in version %d"
+                             % (d["flags"], version))
+        for k in ("n", "res_evals", "res_nonfinite"):
+            d[k] = r.u("Q")
+        for k in ("estimate", "error", "ci_low", "ci_high", "abs_integral"):
+            d[k] = r.u("d")
     else:
         raise ValueError("unexpected message type %r" % mtype)
     r.done()

@@ -85,7 +85,8 @@ check "[ -d '$tmp/sys/run/qmcd' ] && [ \"\$(stat -c %a '$tmp/sys/run/qmcd')\" = 
 
 # ---- 4. the client example against the installed pkg-config file -------------
 mkdir -p "$tmp/ex"
-cp "$TOP/client/examples/points_example.c" "$TOP/client/examples/integrate_example.c" "$tmp/ex/"
+cp "$TOP/client/examples/points_example.c" "$TOP/client/examples/integrate_example.c" \
+    "$TOP/client/examples/session_example.c" "$tmp/ex/"
 # Under make sanitize the installed libraries are instrumented: so is the
 # example then, or it could not load them.
 EXCC=cc
@@ -134,6 +135,18 @@ for ex in points_example static_example; do
         bad "$ex failed against the installed qmcd: $(cat "$tmp/$ex.err")"
     fi
 done
+# the session example: a function of its own through the installed daemon,
+# callback and ask/tell, the same bytes as libqmc in-process (it exits 1
+# otherwise), three methods
+if LD_LIBRARY_PATH="$R/lib" "$tmp/ex/session_example" "unix:$S" > "$tmp/session_example.txt" \
+    2> "$tmp/session_example.err"; then
+    check "[ \"\$(grep -c 'agree bit for bit: yes' '$tmp/session_example.txt')\" = 3 ]" \
+        "session_example: $(cat "$tmp/session_example.txt")"
+    check "[ \"\$(grep -c 'covers the true value: yes' '$tmp/session_example.txt')\" = 3 ]" \
+        "session_example: $(cat "$tmp/session_example.txt")"
+else
+    bad "session_example failed against the installed qmcd: $(cat "$tmp/session_example.txt" "$tmp/session_example.err")"
+fi
 check "LD_LIBRARY_PATH='$R/lib' ldd '$tmp/ex/points_example' | grep -q '$R/lib/libqmcclient.so.0 '" \
     "the example does not load the installed libqmcclient.so.0"
 kill -TERM "$QPID"

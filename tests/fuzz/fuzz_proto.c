@@ -10,8 +10,10 @@
  * messages keep the bounds a receiver relies on.  Each accepted frame is
  * also decoded as every older protocol version: what an older version
  * accepts is the same message, re-encoded for that version to the same
- * bytes, and it refuses only a JOB_RESULT with flags it does not define
- * (PROTOCOL.md section 5).  Decoding must
+ * bytes, and it refuses only a JOB_RESULT, SESSION_RESULT or
+ * SESSION_REPORT with flags it does not define (PROTOCOL.md section 5).
+ * The session messages keep the bounds their receivers rely on (section
+ * 6.21).  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
  * The codec sources are compiled in here (with the fuzzer's coverage
@@ -41,6 +43,62 @@ static int known_pixel_codes(const qmc_msg_pixels *p)
     QMC_FORMAT_MAP(FORMAT_IS)
 #undef FORMAT_IS
     return sampler && format;
+}
+
+/* The result flags a frame carries (JOB_RESULT, SESSION_RESULT,
+ * SESSION_REPORT: the ones an older version may refuse), or NULL. */
+static const uint32_t *result_flags(const qmc_msg *m)
+{
+    if (m->type == QMC_MSG_JOB_RESULT || m->type == QMC_MSG_SESSION_RESULT)
+        return &m->u.result.res.flags;
+    if (m->type == QMC_MSG_SESSION_REPORT)
+        return &m->u.session_report.report.running.flags;
+    return NULL;
+}
+
+/* What the daemon and the client rely on in the session messages they
+ * accept (PROTOCOL.md section 6.21): 1 when it holds. */
+static int session_bounds_hold(const qmc_msg *m)
+{
+    switch (m->type) {
+    case QMC_MSG_SESSION_BATCH: {
+        const qmc_msg_session_batch *b = &m->u.session_batch;
+        const uint64_t bytes = (uint64_t)b->points * b->dims * 8;
+        if (b->points == 0 || b->dims == 0 || b->first > b->count ||
+            b->points > b->count - b->first || bytes != b->data_len)
+            return 0;
+        if (b->transport == QMC_TRANSPORT_SHM)
+            return b->slot < QMC_PROTO_SHM_MAX_SLOTS && b->data == NULL &&
+                   bytes + 8ull * b->points <= QMC_PROTO_SHM_MAX_SLOT_BYTES;
+        return b->transport == QMC_TRANSPORT_INLINE && b->slot == 0 &&
+               bytes <= QMC_PROTO_CHUNK_BYTES && b->data != NULL;
+    }
+    case QMC_MSG_SESSION_VALUES: {
+        const qmc_msg_session_values *v = &m->u.session_values;
+        if (v->count == 0)
+            return 0;
+        if (v->transport == QMC_TRANSPORT_SHM)
+            return v->slot < QMC_PROTO_SHM_MAX_SLOTS && v->data_len == 0 && v->data == NULL &&
+                   v->count <= QMC_PROTO_SHM_MAX_SLOT_BYTES / 8;
+        return v->transport == QMC_TRANSPORT_INLINE && v->slot == 0 &&
+               v->count <= QMC_PROTO_SESSION_MAX_VALUES && v->data_len == 8 * v->count &&
+               v->data != NULL;
+    }
+    case QMC_MSG_SESSION_REPORT: {
+        const qmc_session_report *r = &m->u.session_report.report;
+        return (unsigned)r->end <= QMC_SESSION_FAILED && r->err <= 0 &&
+               (r->end == QMC_SESSION_FAILED) == (r->err != 0);
+    }
+    case QMC_MSG_SESSION_OPEN:
+        return (unsigned)m->u.session_open.spec.smoothness <= QMC_SMOOTH_SINGULAR &&
+               memchr(m->u.session_open.spec.name, '\0', QMC_SESSION_NAME_BYTES) != NULL &&
+               isfinite(m->u.session_open.spec.exact);
+    case QMC_MSG_SESSION_RESUME:
+        return m->u.session_ref.transport == QMC_TRANSPORT_INLINE ||
+               m->u.session_ref.transport == QMC_TRANSPORT_SHM;
+    default:
+        return 1;
+    }
 }
 
 static uint8_t *again; /* room for one re-encoded frame of any size */
@@ -86,8 +144,8 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
             qmc_msg mv;
             int nv = qmc_proto_decode_version(data + off, size - off, max_payload, v, &mv);
             if (nv == QMC_EPROTO) {
-                if (m.type != QMC_MSG_JOB_RESULT ||
-                    (m.u.result.res.flags & ~qmc_proto_result_flags_defined(v)) == 0)
+                if (result_flags(&m) == NULL ||
+                    (*result_flags(&m) & ~qmc_proto_result_flags_defined(v)) == 0)
                     __builtin_trap();
                 continue;
             }
@@ -133,6 +191,8 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
             ((m.u.pixels.transport != QMC_TRANSPORT_INLINE &&
               m.u.pixels.transport != QMC_TRANSPORT_SHM) ||
              !known_pixel_codes(&m.u.pixels)))
+            __builtin_trap();
+        if (!session_bounds_hold(&m))
             __builtin_trap();
         off += (size_t)n;
     }

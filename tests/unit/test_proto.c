@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "codec.h"
+#include "proto_session.h"
 #include "qmc/proto.h"
 /* The handshake's worked example (vector 0): real nonces and MACs. */
 #include "../vectors/auth_vectors.h"
@@ -293,8 +294,11 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         m->u.progress.seconds = mx ? NAN : ex ? 0.25 : 0;
         break;
     case QMC_MSG_JOB_RESULT:
-        m->request_id = ex ? 4 : m->request_id;
+    case QMC_MSG_SESSION_RESULT: /* the same layout: session 5, request 11 */
+        m->request_id = ex ? (type == QMC_MSG_JOB_RESULT ? 4 : 11) : m->request_id;
         build_result(m, variant);
+        if (ex && type == QMC_MSG_SESSION_RESULT)
+            m->u.result.job_id = 5;
         break;
     case QMC_MSG_JOB_STATE:
         m->request_id = ex ? 5 : m->request_id;
@@ -380,6 +384,15 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
         p->tile.sample_count = mx ? UINT64_MAX : ex ? 8 : 0;
         break;
     }
+    case QMC_MSG_SESSION_OPEN:
+    case QMC_MSG_SESSION_OPENED:
+    case QMC_MSG_SESSION_BATCH:
+    case QMC_MSG_SESSION_VALUES:
+    case QMC_MSG_SESSION_REPORT:
+    case QMC_MSG_SESSION_RESUME:
+    case QMC_MSG_SESSION_CLOSE:
+        proto_session_build(type, variant, m); /* proto_session.c */
+        break;
     }
 }
 
@@ -534,6 +547,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
         same_f64(a->u.progress.seconds, b->u.progress.seconds);
         break;
     case QMC_MSG_JOB_RESULT:
+    case QMC_MSG_SESSION_RESULT:
         same_result(&a->u.result, &b->u.result);
         break;
     case QMC_MSG_JOB_STATE:
@@ -603,6 +617,15 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
         assert_true(p->tile.sample_count == q->tile.sample_count);
         break;
     }
+    case QMC_MSG_SESSION_OPEN:
+    case QMC_MSG_SESSION_OPENED:
+    case QMC_MSG_SESSION_BATCH:
+    case QMC_MSG_SESSION_VALUES:
+    case QMC_MSG_SESSION_REPORT:
+    case QMC_MSG_SESSION_RESUME:
+    case QMC_MSG_SESSION_CLOSE:
+        proto_session_same(a, b);
+        break;
     }
 }
 
@@ -709,7 +732,7 @@ static void test_bad_header(void **state)
     static const struct {
         size_t off;
         uint8_t value;
-    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 26}, {5, 255},
+    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 34}, {5, 255},
                {6, 1}, {7, 0x80}, {20, 1}, {23, 0x80}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         memcpy(frame2, frame, n);
@@ -1074,8 +1097,8 @@ static void test_encoder_refuses(void **state)
     build(QMC_MSG_PING, EXAMPLE, &m);
     m.type = (qmc_msg_type)0;
     refuse(&m, "type 0");
-    m.type = (qmc_msg_type)26;
-    refuse(&m, "type 26");
+    m.type = (qmc_msg_type)34;
+    refuse(&m, "type 34");
     build(QMC_MSG_PIXELS, EXAMPLE, &m);
     m.u.pixels.spec.sampler = (qmc_pixel_sampler)0;
     refuse(&m, "pixel sampler 0");

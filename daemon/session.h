@@ -1,0 +1,157 @@
+/*
+ * session.h - integration sessions in the daemon (PROTOCOL.md section
+ * 6.21, docs/SESSIONS.md), shared by their three files:
+ *
+ *   session.c        the requests (SESSION_OPEN, _VALUES, _RESUME, _CLOSE)
+ *                    and the producer kind that answers on a connection;
+ *   session_store.c  the server-wide registry: ids, tokens, identities,
+ *                    the caps, parking and expiry, the STATS gauges;
+ *   session_step.c   moving the integrator on (qmc_session_new, _tell) on
+ *                    the worker pool or, when cheap, on the loop thread.
+ *
+ * A session (sess) lives in the registry from SESSION_OPEN until it ends,
+ * is closed or expires.  While a connection serves it, an attachment - a
+ * producer of that connection (producer.h) - points at it; when the
+ * connection goes, the attachment goes and the session is parked, with
+ * its batch, until a SESSION_RESUME from the same identity attaches it
+ * again or session-idle-timeout-ms passes.  A session waiting for its
+ * caller's values holds no thread: only its memory (qmc_session_memory_bytes,
+ * reserved against the session caps and max-jobs-memory-total).
+ *
+ * Private to these files: the rest of the daemon reaches sessions only
+ * through the module's rows (modules.h).
+ */
+#ifndef QMCD_SESSION_H
+#define QMCD_SESSION_H
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#include "conn_services.h"
+#include "pool.h"
+#include "producer.h"
+#include "qmc/proto.h"
+#include "qmc/session.h"
+
+typedef struct qmcd_sess qmcd_sess;
+
+/* A connection's handle on a session: the producer that answers under
+ * the SESSION_OPEN's (or SESSION_RESUME's) request id.  s NULL: the
+ * session went elsewhere (closed, taken over); its pump then ends it. */
+typedef struct qmcd_sess_attach {
+    qmcd_producer p;              /* first: the connection's handle */
+    qmcd_sess *s;
+    qmcd_conn *c;                 /* the connection it is a producer of */
+} qmcd_sess_attach;
+
+/* Why a step must stop (sess.cancel). */
+enum { SESS_GO = 0, SESS_CANCEL_CLOSE, SESS_CANCEL_TIMEOUT, SESS_CANCEL_SHUTDOWN };
+
+/* A ring piece of the batch on its way: its points, its slot, and which
+ * hand-out of the ring it was (ring.h: still the client's while
+ * released_total < handed). */
+typedef struct qmcd_sess_piece {
+    uint64_t first;
+    uint32_t points, slot;
+    uint64_t handed;
+} qmcd_sess_piece;
+
+struct qmcd_sess {
+    qmcd_pool_task task;          /* first: the pool hands &s->task back */
+    qmcd_sess *next;              /* the registry's list */
+    qmcd_server *srv;
+    qmcd_sess_attach *a;          /* the attachment serving it, or NULL: parked */
+    uint64_t id;
+    uint8_t token[QMC_PROTO_SESSION_TOKEN_BYTES];
+    qmcd_identity who;
+    qmc_session_spec spec;        /* as asked, with the server's caps applied */
+    qmc_session *core;            /* NULL until the opening step made it */
+    uint64_t mem_bytes;           /* counted against the session caps */
+    uint64_t pool_bytes;          /* kept against max-jobs-memory-total */
+    uint64_t max_batch;           /* the most points a batch may hold */
+    qmc_points_transport transport; /* what the attached client asked for */
+
+    /* Steps: one at a time, on the pool or the loop. */
+    int stepping;                 /* a step is queued or running */
+    int opening;                  /* the step is the opening one */
+    atomic_int cancel;            /* SESS_CANCEL_*: the interrupt hook reads it */
+    int on_pool;                  /* the running step holds a pool slot */
+    unsigned polls;               /* hook calls in this step */
+    int64_t step_start_ms;
+    int64_t step_limit_ms;        /* job-time-limit-ms, copied on the loop */
+    int64_t last_step_us;         /* the last step's time: cheap ones stay on the loop */
+    double compute_s;             /* the steps' time, for SESSION_RESULT */
+    int err;                      /* the opening's refusal, or the end's error */
+    char why[512];
+    qmc_integrate_report rep;     /* the end's answer */
+
+    /* The batch handed out, and the values coming back. */
+    int have_batch;               /* batch holds the waiting batch */
+    qmc_session_batch batch;
+    uint64_t sent;                /* its points sent so far (pieces) */
+    int ring;                     /* this batch goes through the ring */
+    qmcd_sess_piece pieces[QMC_PROTO_SHM_MAX_SLOTS];
+    unsigned n_pieces;
+    double *vals;                 /* values received, vals_cap of room */
+    uint64_t vals_cap, got;
+
+    /* What the attachment still owes its client, in this order. */
+    int owe_opened, owe_report;
+    int finished;                 /* the integrator ended: the result is owed */
+    int announced;                /* SESSION_OPENED went out: its client holds
+                                     the token, so it is kept when parked */
+    int64_t parked_ms;            /* when it was parked, 0 while attached */
+    int orphan;                   /* freed at exit while a step ran: the pool
+                                     hands it back to free (free_fn) */
+};
+
+/* ---- session_store.c -------------------------------------------------------------- */
+
+/* The module's server-wide state: registry and expiry timer.  0 or -errno. */
+int qmcd__sessions_open(qmcd_server *srv);
+void qmcd__sessions_close(qmcd_server *srv);
+
+/* Checks the caps for one more session of who reserving bytes; 0, or
+ * QMC_ETOOBIG with one line in why (and STATS refused_sessions). */
+int qmcd__sessions_admit(qmcd_server *srv, const qmcd_identity *who, uint64_t bytes,
+                         char *why, size_t why_bytes);
+/* A new session in the registry (id, token from libsodium's generator),
+ * counted against the caps; NULL when out of memory. */
+qmcd_sess *qmcd__sessions_add(qmcd_server *srv, const qmcd_identity *who, uint64_t bytes);
+/* The session of this id, identity and token, or NULL (one answer for an
+ * unknown id, another identity and a wrong token: compared in constant
+ * time, both checked). */
+qmcd_sess *qmcd__sessions_find(qmcd_server *srv, uint64_t id, const qmcd_identity *who,
+                               const uint8_t *token);
+/* Parks s (its attachment is gone): the expiry clock starts. */
+void qmcd__sessions_park(qmcd_sess *s);
+/* s is attached again (SESSION_RESUME). */
+void qmcd__sessions_unpark(qmcd_sess *s);
+/* Takes s out of the registry and frees it, or, while a step runs, marks
+ * it an orphan, to be freed when the step comes back. */
+void qmcd__sessions_drop(qmcd_sess *s);
+/* Frees a session out of the registry whose step is over (an orphan
+ * back; drop's own end). */
+void qmcd__sessions_free(qmcd_sess *s);
+
+/* ---- session_step.c --------------------------------------------------------------- */
+
+/* Starts the opening step (qmc_session_new) on the pool under tenant;
+ * the session's memory waits for max-jobs-memory-total there like a job's. */
+void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant);
+/* All the batch's values are in: the next step (qmc_session_tell), on the
+ * loop when the last steps were cheap, else on the pool under tenant. */
+void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant);
+/* After a step (or the opening): takes the next batch (ask) and whether
+ * the session finished. */
+void qmcd__sess_settle(qmcd_sess *s);
+
+/* ---- session.c ---------------------------------------------------------------------- */
+
+/* A step came back (loop thread): answer on the attachment (kicking its
+ * connection when kick is set: from the pool; a step run inside a
+ * request's handler is pumped after it), or leave the session parked, or
+ * free it. */
+void qmcd__sess_step_done(qmcd_sess *s, int kick);
+
+#endif
