@@ -24,10 +24,11 @@
  *                   chunk is touched (one byte read, as --inprocess does)
  *                   and its slot released.  With --into the stream is
  *                   qmc_client_points instead: every chunk copied into one
- *                   array of the whole result, allocated for each run (what
- *                   a program that wants the points in memory does; the
- *                   Python client's bench, bench/bench_python.sh, compares
- *                   its numpy path with it).
+ *                   array of the whole result, allocated and faulted in
+ *                   once before the runs and reused (what a program that
+ *                   wants the points in memory does; the Python client's
+ *                   bench, bench/bench_python.sh, compares its numpy path
+ *                   with it).
  *   --inprocess     the same points generated here with qmc_seq_fill, in
  *                   chunks of the size the daemon uses, into one reused
  *                   buffer: the rate the socket path is measured against.
@@ -90,7 +91,7 @@ typedef struct opts {
     unsigned repeat;            /* bulk and inprocess: runs, median reported */
     long rss_pid;
     int shm;                    /* bulk through a shared-memory ring */
-    int into;                   /* --shm: copied into a fresh array per run */
+    int into;                   /* --shm: copied into one array, reused */
     uint32_t slots, slot_bytes; /* its geometry */
 } opts;
 
@@ -110,7 +111,7 @@ static const char usage[] =
     "with both --requests and --seconds a run stops at whichever comes first.\n"
     "--unix-ceiling: the same bytes through a socketpair, no generation (the bound).\n"
     "--shm: bulk through a shared-memory ring (unix: only), default 8 slots of 1 MiB;\n"
-    "--into: each run copies the points into a fresh array (qmc_client_points).\n";
+    "--into: each run copies the points into one array (qmc_client_points).\n";
 
 static void die(const char *what)
 {
@@ -1046,18 +1047,23 @@ static int run_bulk_shm(const opts *o)
     k.rss_peak = rss_before;
     double secs[64];
     unsigned runs = o->repeat > 64 ? 64 : o->repeat;
+    /* --into: the array is allocated and faulted in before the clock, so
+     * the runs time the client and not the kernel's page faults (which
+     * on a virtual machine vary by 10x from run to run). */
+    uint8_t *out = NULL;
+    if (o->into && !(out = malloc((size_t)o->count * row))) {
+        fprintf(stderr, "qmc-load: no memory for %llu points\n", (unsigned long long)o->count);
+        qmc_client_close(c);
+        return 1;
+    }
+    if (out)
+        memset(out, 0, (size_t)o->count * row);
     for (unsigned r = 0; r < runs; r++) {
         uint64_t t0 = now_ns();
         if (o->into) {
-            /* Allocated in the run, as a caller's array would be: its
-             * pages are faulted in by the copies, inside the time. */
-            void *out = malloc((size_t)o->count * row);
-            err = out ? qmc_client_points(c, &o->seq, 0, o->count, o->format, out,
-                                          (size_t)o->count * row)
-                      : QMC_ENOMEM;
-            if (out)
-                k.sink ^= ((volatile uint8_t *)out)[(size_t)o->count * row / 2];
-            free(out);
+            err = qmc_client_points(c, &o->seq, 0, o->count, o->format, out,
+                                    (size_t)o->count * row);
+            k.sink ^= ((volatile uint8_t *)out)[(size_t)o->count * row / 2];
         } else {
             err = qmc_client_points_stream(c, &o->seq, 0, o->count, o->format, touch_chunk,
                                            &k);
@@ -1065,10 +1071,12 @@ static int run_bulk_shm(const opts *o)
         secs[r] = (double)(now_ns() - t0) / 1e9;
         if (err) {
             fprintf(stderr, "qmc-load: %s\n", qmc_client_last_error(c));
+            free(out);
             qmc_client_close(c);
             return 1;
         }
     }
+    free(out);
     long rss_after = rss_settled(o);
     qmc_client_close(c);
     print_rate(o->into ? "bulk-shm-into" : "bulk-shm", o, secs, runs,

@@ -95,8 +95,10 @@ class Client:
         self._jobs = {}          # request id -> Job, unfinished
         self._sessions = {}      # request id -> session state (sessions.py)
         self._ring = None
+        self._shm = shm
         self._shm_off = not shm
         self._streaming = False  # a points_chunks() iteration is open
+        self._name = name
         self._lock = threading.RLock()
         self._conn = Conn(open_socket(endpoint, timeout), timeout, MAX_FRAME)
         try:
@@ -118,13 +120,44 @@ class Client:
 
     # -- lifetime --
     def close(self):
-        """Closes the connection (its jobs are cancelled by the daemon)."""
+        """Closes the connection (its jobs are cancelled by the daemon; its
+        sessions are parked, resumable for their park_ms)."""
         with self._lock:
-            self._conn.close()
-            if self._ring is not None:
-                self._ring.close()
-                self._ring = None
+            self._drop()
             self._key = None
+
+    def _drop(self):
+        self._conn.close()
+        if self._ring is not None:
+            self._ring.close()
+            self._ring = None
+
+    def reconnect(self):
+        """A new connection to the same endpoint, with the same key: the
+        handshake again, the ring attached again when needed.  Jobs of the
+        old connection are lost (wait() raises ConnectionLost); sessions
+        are parked on the daemon and resumable (resume(ticket))."""
+        from .errors import ConnectionLost
+        with self._lock:
+            self._drop()
+            lost = ConnectionLost("the connection was replaced; the daemon cancelled this job")
+            for job in self._jobs.values():
+                job._error, job.finished = lost, True
+            self._jobs.clear()
+            for sess in self._sessions.values():
+                sess._unpin()
+            self._sessions.clear()
+            self._shm_off = not self._shm
+            self._streaming = False
+            self._next_id = 1
+            self.authenticated = False
+            self.version = wire.VERSION_MAX
+            self._conn = Conn(open_socket(self.endpoint, self.timeout), self.timeout, MAX_FRAME)
+            try:
+                self._hello(self._name)
+            except BaseException:
+                self._conn.close()
+                raise
 
     def __enter__(self):
         return self
@@ -167,9 +200,12 @@ class Client:
         return exc
 
     def _release(self):
-        """Gives back every ring slot handled, before we might block."""
+        """Gives back every ring slot handled, before we might block.
+        Release is oldest first: while a session's batch holds slots
+        (pinned until its values are sent) nothing goes back."""
         ring = self._ring
-        if ring is not None and ring.held and not self._conn.whole_frame_buffered():
+        if ring is not None and ring.held and not ring.pinned and \
+                not self._conn.whole_frame_buffered():
             held, ring.held = ring.held, 0
             self._send(wire.SHM_RELEASE, {"slots": held}, rid=0)
 
@@ -192,6 +228,11 @@ class Client:
                 return mtype, msg
             self._other(mtype, frid, msg)
 
+    def _pump(self):
+        """Reads one frame and files it with the request it answers."""
+        mtype, rid, msg = self._frame()
+        self._other(mtype, rid, msg)
+
     def _other(self, mtype, rid, msg):
         if rid == 0 and mtype == wire.ERROR:
             raise self._break(ServerError(msg["code"], "the daemon closed the connection: %s"
@@ -201,6 +242,16 @@ class Client:
             if job.finished:
                 del self._jobs[rid]
             return
+        s = self._sessions.get(rid)
+        if s is not None:
+            s._file(mtype, msg)
+            if s.done:
+                del self._sessions[rid]
+            return
+        if mtype == wire.ERROR:
+            for s in self._sessions.values():
+                if s._refused(rid, msg):
+                    return
         raise self._break(ProtocolError("protocol error: %s for request %d, which is not in "
                                         "flight" % (wire.type_name(mtype), rid)))
 
@@ -397,14 +448,16 @@ class Client:
         if count * row_bytes > AUTO_SLOT_BYTES:
             self._shm_auto()
         ring = self._ring
-        shm = ring is not None and row_bytes <= ring.slot_bytes
+        # While a session's batch pins ring slots, streams go inline (as
+        # libqmcclient's do): releases are oldest first.
+        shm = ring is not None and not ring.pinned and row_bytes <= ring.slot_bytes
         fields["transport"] = "shm" if shm else "inline"
         rid = self._send(mtype, fields)
         got = 0
         conn = self._conn
         scratch = None
         while True:
-            if ring is not None and ring.held:
+            if ring is not None and ring.held and not ring.pinned:
                 self._release()
             ftype, frid, plen, deadline = conn.read_header()
             if frid != rid:
@@ -459,8 +512,9 @@ class Client:
                     view = None
                     # Copied out: the slot can go back at once, so the
                     # daemon refills it while we copy the next one.
-                    held, ring.held = ring.held, 0
-                    self._send(wire.SHM_RELEASE, {"slots": held}, rid=0)
+                    if not ring.pinned:
+                        held, ring.held = ring.held, 0
+                        self._send(wire.SHM_RELEASE, {"slots": held}, rid=0)
                 yield got, points, view
                 got += points
             elif ftype == wire.END:
@@ -667,6 +721,105 @@ class Client:
     def run(self, integrand=None, dims=None, **options):
         """submit(...).wait(): the job's JobResult."""
         return self.submit(integrand, dims, **options).wait()
+
+    # -- integration sessions: the caller's own function --
+    def session(self, dims, method="auto", **options):
+        """Opens an integration session for a function of dims dimensions
+        (protocol version 5); returns a qmcd.Session to drive with next()
+        and tell().  options: as integrate()'s."""
+        from .sessions import Session, ring_for, session_fields
+        fields, request = session_fields(dims, method, **options)
+        with self._lock:
+            self._need(wire.VERSION_SESSIONS, "sessions")
+            if method in ("auto", "mc", "stratified", "lhs", "qmc", "rqmc") and \
+                    self._ring is None and not self._shm_off and self.unix:
+                # Sampling batches are large: a ring they fit in whole.
+                slots, slot_bytes = ring_for(fields["dims"], fields["max_batch"])
+                try:
+                    self.attach_shm(slots, slot_bytes)
+                except QmcdError:
+                    if self.closed:
+                        raise
+                    self._shm_off = True
+            fields["transport"] = "shm" if self._ring is not None else "inline"
+            return self._start_session(wire.SESSION_OPEN, fields, fields["dims"], request)
+
+    def resume(self, ticket, request=None):
+        """Takes up a session again (SESSION_RESUME) from its ticket, (id,
+        token), on this connection: the batch it waits for is served again.
+        The daemon refuses (-ENOENT) a session of another identity, with a
+        wrong token, or past its park_ms."""
+        from .sessions import SessionRequest
+        sid, token = ticket
+        with self._lock:
+            self._need(wire.VERSION_SESSIONS, "sessions")
+            fields = {"session_id": sid, "token": token,
+                      "transport": "shm" if self._ring is not None else "inline"}
+            return self._start_session(wire.SESSION_RESUME, fields, 0,
+                                       request or SessionRequest({}, "f", "auto", 0.95))
+
+    def _start_session(self, mtype, fields, dims, request):
+        from .sessions import Session
+        rid = self._id()
+        s = Session(self, rid, dims, request)
+        self._sessions[rid] = s
+        self._send(mtype, fields, rid=rid)
+        while s.state == 0:  # opening: until SESSION_OPENED or the refusal
+            self._pump()
+        if s.done:
+            self._sessions.pop(rid, None)
+            raise s._error
+        return s
+
+    def integrate(self, f, dims, method="auto", *, retries=3, on_report=None, **options):
+        """Integrates the caller's own function over [0,1)^dims on the
+        daemon: f takes an (n, dims) float64 array (read-only) and returns
+        n values; the daemon's integrator asks for the batches it needs
+        and keeps the estimate, its error bar and the flags, as for a job.
+        Returns a SessionResult (json() as `qmc integrate --json`).
+
+        options: method and tol_rel, tol_abs, n, reps, seq, scramble,
+        shuffle, split_net, seed, max_evals, max_memory, confidence (as
+        submit() and `qmc integrate` take them); smoothness of f
+        ("continuous" by default; "analytic" lets auto choose a rule for
+        smooth functions), exact (its integral, when known: tests), name,
+        max_batch.  on_report(report) is called after each batch.  When the
+        connection drops, the client reconnects and resumes the session,
+        at most `retries` times; the values of the batch that was waiting
+        are sent again, not recomputed.
+        """
+        from .errors import ConnectionLost, Timeout
+        import numpy as _np
+        s = self.session(dims, method, **options)
+        request = s.request
+        ticket = s.ticket
+        kept = None  # (seq, values) of the last batch evaluated
+        tries = 0
+        while True:
+            try:
+                while True:
+                    b = s.next()
+                    if b is None:
+                        break
+                    if kept is not None and kept[0] == b.seq and len(kept[1]) == b.count:
+                        v = kept[1]
+                    else:
+                        v = _np.asarray(f(b.points), dtype=_np.float64).reshape(-1)
+                        if len(v) != b.count:
+                            s.close()
+                            raise ValueError("f returned %d values for %d points"
+                                             % (len(v), b.count))
+                        kept = (b.seq, v.copy())
+                    s.tell(v)
+                    if on_report is not None:
+                        on_report(s.report)
+                return s.result()
+            except (ConnectionLost, Timeout):
+                tries += 1
+                if tries > retries:
+                    raise
+                self.reconnect()
+                s = self.resume(ticket, request)
 
 
 def tile_piece(tile, done, max_samples):

@@ -29,6 +29,10 @@ class JobRequest:
     def __init__(self, fields, label, method, confidence):
         self.fields, self.label, self.method, self.confidence = fields, label, method, confidence
 
+    def known_abs(self, reference_kind, reference):
+        """The integral of |f| the CLI would know in closed form, or None."""
+        return known_abs_integral(self.fields, reference_kind, reference)
+
 
 def _u(name, v, lo, hi):
     if isinstance(v, bool) or int(v) != v or not lo <= int(v) <= hi:
@@ -375,7 +379,7 @@ class JobResult:
         ref = self.reference if has_ref else math.nan
         est = self.estimate
         err = est - ref
-        known = known_abs_integral(self.request.fields, self.reference_kind, self.reference)
+        known = self.request.known_abs(self.reference_kind, self.reference)
         absint = known if known is not None else (
             self.abs_integral if self.abs_integral > 0 else math.nan)
         kind = self.error_kind

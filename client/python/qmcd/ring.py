@@ -9,7 +9,8 @@ into the caller's array) and gives slots back, oldest first, in one
 SHM_RELEASE before it next waits for the socket.
 
 Must not: keep the memfd open once sent (the mapping keeps the memory),
-write into the ring, or outlive the connection (close() unmaps).
+write into the ring but a session's values into its batch's slot, or
+outlive the connection (close() unmaps).
 """
 import fcntl
 import mmap
@@ -26,6 +27,7 @@ class Ring:
         self.bytes = slots * slot_bytes
         self.next = 0    # the slot the next chunk must name
         self.held = 0    # slots named by chunks and not yet released
+        self.pinned = 0  # of those, a session batch's, waiting for its values
         self.map = None
         self.view = None
         self.fd = -1
@@ -36,10 +38,13 @@ class Ring:
             # once it has mapped the ring.
             fcntl.fcntl(self.fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW)
             # MAP_POPULATE: the pages are allocated (and charged) here, as
-            # the server insists (it checks with mincore).
+            # the server insists (it checks with mincore).  Writable, and
+            # mapped before the server seals new writable mappings away: a
+            # session writes its values into its batch's slot.
             self.map = mmap.mmap(self.fd, self.bytes, flags=mmap.MAP_SHARED | mmap.MAP_POPULATE,
-                                 prot=mmap.PROT_READ)
+                                 prot=mmap.PROT_READ | mmap.PROT_WRITE)
             self.view = memoryview(self.map)
+            self.ro = self.view.toreadonly()
         except OSError as e:
             self.close()
             raise QmcdError(-(e.errno or 5), "shared memory: %s" % (e.strerror or e)) from None
@@ -53,13 +58,14 @@ class Ring:
     def slot(self, index, nbytes):
         """A read-only view of the first nbytes of slot index."""
         off = index * self.slot_bytes
-        return self.view[off:off + nbytes]
+        return self.ro[off:off + nbytes]
 
     def close(self):
         self.sent()
         if self.view is not None:
+            self.ro.release()
             self.view.release()
-            self.view = None
+            self.view = self.ro = None
         if self.map is not None:
             try:
                 self.map.close()

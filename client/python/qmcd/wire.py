@@ -26,10 +26,11 @@ HEADER = struct.Struct("<4sBBHQII")  # magic, version, type, flags, id, len, res
 HEADER_BYTES = HEADER.size  # 24
 
 VERSION_MIN = 1
-VERSION_MAX = 4          # the newest version this package speaks
+VERSION_MAX = 5          # the newest version this package speaks
 VERSION_SHM = 2          # SHM_ATTACH, POINTS_SHM_CHUNK, SHM_RELEASE
 VERSION_AUTH = 3         # AUTH_*; result flag bits 12-16
 VERSION_PIXELS = 4       # PIXELS; scramble fast-owen
+VERSION_SESSIONS = 5     # SESSION_OPEN .. SESSION_CLOSE (section 6.21)
 
 # ---- limits (section 8) ----------------------------------------------------
 
@@ -47,6 +48,9 @@ SHM_MIN_SLOTS, SHM_MAX_SLOTS = 2, 64
 SHM_MIN_SLOT_BYTES, SHM_MAX_SLOT_BYTES = 64 << 10, 4 << 20
 SHM_SLOT_ALIGN = 4096
 AUTH_NONCE_BYTES = AUTH_MAC_BYTES = 32
+SESSION_TOKEN_BYTES = 32
+SESSION_NAME_MAX = 31
+SESSION_MAX_VALUES = CHUNK_BYTES // 8   # values in one inline SESSION_VALUES
 
 # ---- code tables (section 5) -----------------------------------------------
 # name -> code.  A unit test checks each against its X-macro table in
@@ -69,6 +73,10 @@ ERROR_KINDS = {"none": 0, "stderr": 1, "estimate": 2}
 REFERENCE_KINDS = {"none": 0, "exact": 1, "reference": 2}
 PIXEL_SAMPLERS = {"zsobol": 1, "padded-sobol": 2, "sobol": 3}
 TRANSPORTS = {"inline": 0, "shm": 1}
+SMOOTHNESS = {"analytic": 0, "continuous": 1, "discontinuous": 2, "singular": 3}
+# QMC_SESSION_END_MAP (include/qmc/session.h), numbered from 0.
+SESSION_ENDS = {"running": 0, "converged": 1, "complete": 2, "budget": 3, "cannot_tell": 4,
+                "failed": 5}
 SEQ_SHUFFLE = 1  # sequence flag bit 0
 
 # Result flags (QMC_FLAG_MAP in include/qmc/result.h): bit, key, meaning.
@@ -107,6 +115,8 @@ INTEGRATE, JOB_ACCEPTED, JOB_PROGRESS, JOB_RESULT = 8, 9, 10, 11
 JOB_STATUS, JOB_STATE, JOB_CANCEL, STATS, STATS_REPLY, ERROR = 12, 13, 14, 15, 16, 17
 SHM_ATTACH, SHM_OK, POINTS_SHM_CHUNK, SHM_RELEASE = 18, 19, 20, 21
 AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK, PIXELS = 22, 23, 24, 25
+SESSION_OPEN, SESSION_OPENED, SESSION_BATCH, SESSION_VALUES = 26, 27, 28, 29
+SESSION_REPORT, SESSION_RESULT, SESSION_RESUME, SESSION_CLOSE = 30, 31, 32, 33
 MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS": POINTS,
        "POINTS_CHUNK": POINTS_CHUNK, "END": END, "INTEGRATE": INTEGRATE,
        "JOB_ACCEPTED": JOB_ACCEPTED, "JOB_PROGRESS": JOB_PROGRESS, "JOB_RESULT": JOB_RESULT,
@@ -114,13 +124,17 @@ MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS
        "STATS": STATS, "STATS_REPLY": STATS_REPLY, "ERROR": ERROR, "SHM_ATTACH": SHM_ATTACH,
        "SHM_OK": SHM_OK, "POINTS_SHM_CHUNK": POINTS_SHM_CHUNK, "SHM_RELEASE": SHM_RELEASE,
        "AUTH_CHALLENGE": AUTH_CHALLENGE, "AUTH_RESPONSE": AUTH_RESPONSE, "AUTH_OK": AUTH_OK,
-       "PIXELS": PIXELS}
+       "PIXELS": PIXELS, "SESSION_OPEN": SESSION_OPEN, "SESSION_OPENED": SESSION_OPENED,
+       "SESSION_BATCH": SESSION_BATCH, "SESSION_VALUES": SESSION_VALUES,
+       "SESSION_REPORT": SESSION_REPORT, "SESSION_RESULT": SESSION_RESULT,
+       "SESSION_RESUME": SESSION_RESUME, "SESSION_CLOSE": SESSION_CLOSE}
 NAMES = {code: name for name, code in MSG.items()}
 # What a server sends; a client receiving anything else has met a peer
 # that breaks the protocol.
 SERVER_SENT = frozenset((HELLO_OK, PONG, POINTS_CHUNK, END, JOB_ACCEPTED, JOB_PROGRESS,
                          JOB_RESULT, JOB_STATE, STATS_REPLY, ERROR, SHM_OK, POINTS_SHM_CHUNK,
-                         AUTH_CHALLENGE, AUTH_OK))
+                         AUTH_CHALLENGE, AUTH_OK, SESSION_OPENED, SESSION_BATCH,
+                         SESSION_REPORT, SESSION_RESULT))
 CLIENT_SENT = frozenset(NAMES) - SERVER_SENT
 
 
@@ -265,6 +279,10 @@ class Layout:
                 d[step[1]] = r.take(left)
             elif kind == "stats":
                 d[step[1]] = _decode_stats(r, self.name)
+            elif kind == "tail":
+                # Whatever is left: the message's check says how much that
+                # must be (a session piece's data is inline only).
+                d[step[1]] = r.take(len(payload) - r.off)
             elif kind == "sub":
                 d[step[1]] = step[2].decode(r.take(step[2].size), version)
             else:  # pragma: no cover - a layout typo
@@ -340,8 +358,8 @@ class Layout:
                 if len(v) != step[2]:
                     raise ValueError("%s: %s must be %d bytes" % (self.name, step[1], step[2]))
                 out.append(v)
-            elif kind == "data":
-                out.append(bytes(d[step[1]]))
+            elif kind == "data" or kind == "tail":
+                out.append(bytes(d.get(step[1], b"")))
             elif kind == "stats":
                 out.append(_encode_stats(d[step[1]], self.name))
             elif kind == "sub":
@@ -528,6 +546,82 @@ LAYOUTS = {
 }
 
 
+def _check_session_batch(d):
+    nbytes = d["points"] * d["dims"] * 8
+    ring = d["transport"] == "shm"
+    if d["points"] == 0 or d["dims"] == 0 or d["first"] > d["count"] or \
+            d["points"] > d["count"] - d["first"] or nbytes != d["data_len"]:
+        return "a piece of %d points of %d dims at %d of %d in %d bytes" % (
+            d["points"], d["dims"], d["first"], d["count"], d["data_len"])
+    if ring and (d["slot"] >= SHM_MAX_SLOTS or nbytes + 8 * d["points"] > SHM_MAX_SLOT_BYTES
+                 or len(d.get("data", b""))):
+        return "a ring piece in slot %d of %d bytes" % (d["slot"], nbytes)
+    if not ring and (d["slot"] != 0 or nbytes > CHUNK_BYTES or
+                     len(d.get("data", b"")) != nbytes):
+        return "an inline piece of %d bytes, slot %d, %d data bytes" % (
+            nbytes, d["slot"], len(d.get("data", b"")))
+
+
+def _check_session_values(d):
+    ring = d["transport"] == "shm"
+    n = d["count"]
+    if n == 0:
+        return "count is 0"
+    if ring and (d["slot"] >= SHM_MAX_SLOTS or d["data_len"] != 0 or
+                 n > SHM_MAX_SLOT_BYTES // 8 or len(d.get("data", b""))):
+        return "ring values: slot %d, data_len %d" % (d["slot"], d["data_len"])
+    if not ring and (d["slot"] != 0 or n > SESSION_MAX_VALUES or d["data_len"] != 8 * n or
+                     len(d.get("data", b"")) != 8 * n):
+        return "%d inline values in %d bytes" % (n, d["data_len"])
+
+
+def _check_session_report(d):
+    if d["err"] > 0 or (d["end"] == "failed") != (d["err"] != 0):
+        return "end %s with err %d" % (d["end"], d["err"])
+
+
+LAYOUTS.update({
+    SESSION_OPEN: Layout("SESSION_OPEN", (
+        ("code", "method", _code(METHODS)), ("code", "smoothness", _code(SMOOTHNESS)),
+        ("code", "transport", _code(TRANSPORTS)), ("bool", "n_given", None),
+        ("u32", "dims", None), ("u32", "n_axis", None), ("bool", "has_exact", None),
+        ("zero", None, 3), ("u32", "part_k", None), ("u32", "part_p", None),
+        ("u64", "max_evals", None), ("u64", "max_memory", None), ("u64", "max_batch", None),
+        ("fin", "tol_abs", None), ("fin", "tol_rel", None), ("fin", "exact", None),
+        ("sub", "sampling", SAMPLING), ("str16", "name", (SESSION_NAME_MAX, True))),
+        _check_integrate),
+    SESSION_OPENED: Layout("SESSION_OPENED", (
+        ("u64", "session_id", None), ("bytes", "token", SESSION_TOKEN_BYTES),
+        ("u32", "dims", None), ("zero", None, 4), ("u64", "max_batch", None),
+        ("u64", "memory_bytes", None), ("u64", "park_ms", None))),
+    SESSION_BATCH: Layout("SESSION_BATCH", (
+        ("u64", "seq", None), ("u64", "count", None), ("u64", "first", None),
+        ("u32", "points", None), ("u32", "dims", None), ("code", "transport", _code(TRANSPORTS)),
+        ("zero", None, 3), ("u32", "slot", None), ("u32", "data_len", None),
+        ("tail", "data", None)), _check_session_batch),
+    SESSION_VALUES: Layout("SESSION_VALUES", (
+        ("u64", "session_id", None), ("u64", "seq", None), ("u64", "first", None),
+        ("u32", "count", None), ("code", "transport", _code(TRANSPORTS)), ("zero", None, 3),
+        ("u32", "slot", None), ("u32", "data_len", None), ("tail", "data", None)),
+        _check_session_values),
+    SESSION_REPORT: Layout("SESSION_REPORT", (
+        ("u64", "session_id", None), ("u64", "batches", None), ("u64", "evals", None),
+        ("u64", "nonfinite", None), ("code", "end", _code(SESSION_ENDS)),
+        ("bool", "has_estimate", None), ("code", "error_kind", _code(ERROR_KINDS)),
+        ("zero", None, 1), ("rflags", "flags", None), ("i32", "err", None),
+        ("u32", "dims", None), ("u64", "res_n", None), ("u64", "res_evals", None),
+        ("u64", "res_nonfinite", None), ("f64", "estimate", None), ("f64", "error", None),
+        ("f64", "ci_low", None), ("f64", "ci_high", None), ("f64", "abs_integral", None)),
+        _check_session_report),
+    SESSION_RESULT: Layout("SESSION_RESULT", _JOB_RESULT),
+    SESSION_RESUME: Layout("SESSION_RESUME", (
+        ("u64", "session_id", None), ("bytes", "token", SESSION_TOKEN_BYTES),
+        ("code", "transport", _code(TRANSPORTS)), ("zero", None, 7))),
+    SESSION_CLOSE: Layout("SESSION_CLOSE", (
+        ("u64", "session_id", None), ("bytes", "token", SESSION_TOKEN_BYTES))),
+})
+
+
 def _bounds(layout):
     """(min, max) payload bytes of a layout, from its fields: section 6's table."""
     lo = hi = 0
@@ -548,6 +642,8 @@ def _bounds(layout):
             hi += step[2]
         elif kind == "data":
             lo += 4
+            hi += CHUNK_BYTES
+        elif kind == "tail":
             hi += CHUNK_BYTES
         elif kind == "stats":
             lo += 4

@@ -209,7 +209,7 @@ class Handshake(HostileTest):
         f.close()
         (t, p), = f.seen
         h = wire.decode_payload(wire.HELLO, p)
-        self.assertEqual((t, h["version_min"], h["version_max"]), (wire.HELLO, 1, 4))
+        self.assertEqual((t, h["version_min"], h["version_max"]), (wire.HELLO, 1, wire.VERSION_MAX))
         self.assertGreaterEqual(h["max_frame"], wire.MIN_MAX_FRAME)
 
 
@@ -397,14 +397,15 @@ class Auth(HostileTest):
     def test_server_proof_checked(self):
         from qmcd import auth
         key = b"k" * 32
-        right = lambda r: auth.proof(key, auth.LABEL_SERVER, 1, 4, 4, bytes(range(32)),  # noqa
-                                     r["nonce"])
+        vmax = wire.VERSION_MAX
+        right = lambda r: auth.proof(key, auth.LABEL_SERVER, 1, vmax, 4,  # noqa
+                                     bytes(range(32)), r["nonce"])
         f = self.fake(self.challenger(right), tcp=True)
         c = self.connect(f, auth_key=self.key_file(key))
         self.assertTrue(c.authenticated)
         c.close()
         r = f.seen[-1]
-        self.assertTrue(auth.same(r["mac"], auth.proof(key, auth.LABEL_CLIENT, 1, 4, 4,
+        self.assertTrue(auth.same(r["mac"], auth.proof(key, auth.LABEL_CLIENT, 1, vmax, 4,
                                                        bytes(range(32)), r["nonce"])))
         f = self.fake(self.challenger(lambda r: bytes(32)), tcp=True)
         e = self.fails(AuthError, f, "could not prove it holds our key",
