@@ -89,3 +89,41 @@ class PinProxy:
 
     def close(self):
         self.ls.close()
+
+
+class CutProxy(PinProxy):
+    """A PinProxy that breaks its first connection after relaying `after`
+    SESSION_BATCH frames (both sockets shut down, as a network failure
+    would): the client sees the connection drop in the middle of a
+    session, the daemon parks the session.  Later connections pass."""
+
+    def __init__(self, upstream_path, directory, after):
+        self.after = after
+        self.batches = 0
+        self.cut = threading.Event()
+        self.first = None
+        PinProxy.__init__(self, upstream_path, directory)
+
+    def _pump(self, src, dst, from_client):
+        if self.first is None and from_client:
+            self.first = src
+        try:
+            for h, p in _frames(src):
+                dst.sendall(h + p)
+                if not from_client and h[5] == wire.SESSION_BATCH and \
+                        self.first is dst and not self.cut.is_set():
+                    self.batches += 1
+                    if self.batches == self.after:
+                        self.cut.set()
+                        for s in (src, dst):
+                            s.shutdown(socket.SHUT_RDWR)
+                        break
+        except OSError:
+            pass
+        finally:
+            for s in (src, dst):
+                try:
+                    s.shutdown(socket.SHUT_RDWR)
+                except OSError:
+                    pass
+            src.close()
