@@ -7,7 +7,10 @@
 #     servers (garbage, truncation, oversized frames, drips, lies about the
 #     ring, bad proofs: a clear exception, never a hang), byte-identical
 #     points, tiles and job JSON against the C CLI, the HMAC handshake
-#     against qmcd --auth-key, the scipy-style engines against scipy;
+#     against qmcd --auth-key, the scipy-style engines against scipy,
+#     integration sessions with Python functions equal to built-in
+#     integrands giving `qmc integrate`'s results bit for bit, resumed
+#     after a dropped connection;
 #   - the package installs offline from a copy of the tree with Debian's
 #     pip and setuptools (pip install --no-build-isolation --target DIR)
 #     and, installed, talks to a daemon;
@@ -77,7 +80,7 @@ case $out in
 esac
 
 # ---- the README's examples, from the tree ----------------------------------------
-for ex in points_example job_example tile_example; do
+for ex in points_example job_example tile_example integrate_example; do
     if (cd "$tmp" && QMC_ENDPOINT=$ep PYTHONPATH="$root/client/python" \
         $py "$root/client/python/examples/$ex.py" > "$tmp/$ex.out" 2>&1); then
         ok
@@ -91,6 +94,9 @@ grep -q '^{"integrand":"genz-gaussian"' "$tmp/job_example.out" && ok ||
     bad "job_example: $(cat "$tmp/job_example.out")"
 grep -q '^node 2/4   the same values: True' "$tmp/tile_example.out" && ok ||
     bad "tile_example: $(cat "$tmp/tile_example.out")"
+grep -q '^ended      converged' "$tmp/integrate_example.out" &&
+    grep -q '^auto       clenshaw-curtis: 1.0000000000' "$tmp/integrate_example.out" && ok ||
+    bad "integrate_example: $(cat "$tmp/integrate_example.out")"
 
 (cd "$root" && find client/python | sort) > "$tmp/tree.after"
 cmp -s "$tmp/tree.before" "$tmp/tree.after" && ok ||
