@@ -14,7 +14,8 @@ Pure Python (the standard library and numpy); the wire protocol is
 protocol/PROTOCOL.md of the qmcd tree.  Errors are qmcd.QmcdError
 subclasses carrying the daemon's code and message.
 """
-from .client import Client, connect, tile_piece, JOE_KUO_TABLE_HASH
+from .client import Client, connect, JOE_KUO_TABLE_HASH
+from .streams import tile_piece
 from .engines import (QMCEngine, Sobol, Halton, Hammersley, LatinHypercube, Stratified,
                       Random)
 from .errors import (QmcdError, ServerError, ProtocolError, FrameTooBig, ConnectionLost,

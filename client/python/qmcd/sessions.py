@@ -414,3 +414,106 @@ class SessionResult(JobResult):
         JobResult.__init__(self, msg, request)
         self.session_id = msg["job_id"]
         self.report = session.report
+
+
+class SessionsMixin:
+    """Client's integration sessions (a mixin: Client has the connection)."""
+
+    # -- integration sessions: the caller's own function --
+    def session(self, dims, method="auto", **options):
+        """Opens an integration session for a function of dims dimensions
+        (protocol version 5); returns a qmcd.Session to drive with next()
+        and tell().  options: as integrate()'s."""
+        from .sessions import ring_for, session_fields
+        fields, request = session_fields(dims, method, **options)
+        with self._lock:
+            self._need(wire.VERSION_SESSIONS, "sessions")
+            if method in ("auto", "mc", "stratified", "lhs", "qmc", "rqmc") and \
+                    self._ring is None and not self._shm_off and self.unix:
+                # Sampling batches are large: a ring they fit in whole.
+                slots, slot_bytes = ring_for(fields["dims"], fields["max_batch"])
+                try:
+                    self.attach_shm(slots, slot_bytes)
+                except QmcdError:
+                    if self.closed:
+                        raise
+                    self._shm_off = True
+            fields["transport"] = "shm" if self._ring is not None else "inline"
+            return self._start_session(wire.SESSION_OPEN, fields, fields["dims"], request)
+
+    def resume(self, ticket, request=None):
+        """Takes up a session again (SESSION_RESUME) from its ticket, (id,
+        token), on this connection: the batch it waits for is served again.
+        The daemon refuses (-ENOENT) a session of another identity, with a
+        wrong token, or past its park_ms."""
+        from .sessions import SessionRequest
+        sid, token = ticket
+        with self._lock:
+            self._need(wire.VERSION_SESSIONS, "sessions")
+            fields = {"session_id": sid, "token": token,
+                      "transport": "shm" if self._ring is not None else "inline"}
+            return self._start_session(wire.SESSION_RESUME, fields, 0,
+                                       request or SessionRequest({}, "f", "auto", 0.95))
+
+    def _start_session(self, mtype, fields, dims, request):
+        from .sessions import Session
+        rid = self._id()
+        s = Session(self, rid, dims, request)
+        self._sessions[rid] = s
+        self._send(mtype, fields, rid=rid)
+        while s.state == 0:  # opening: until SESSION_OPENED or the refusal
+            self._pump()
+        if s.done:
+            self._sessions.pop(rid, None)
+            raise s._error
+        return s
+
+    def integrate(self, f, dims, method="auto", *, retries=3, on_report=None, **options):
+        """Integrates the caller's own function over [0,1)^dims on the
+        daemon: f takes an (n, dims) float64 array (read-only) and returns
+        n values; the daemon's integrator asks for the batches it needs
+        and keeps the estimate, its error bar and the flags, as for a job.
+        Returns a SessionResult (json() as `qmc integrate --json`).
+
+        options: method and tol_rel, tol_abs, n, reps, seq, scramble,
+        shuffle, split_net, seed, max_evals, max_memory, confidence (as
+        submit() and `qmc integrate` take them); smoothness of f
+        ("continuous" by default; "analytic" lets auto choose a rule for
+        smooth functions), exact (its integral, when known: tests), name,
+        max_batch.  on_report(report) is called after each batch.  When the
+        connection drops, the client reconnects and resumes the session,
+        at most `retries` times; the values of the batch that was waiting
+        are sent again, not recomputed.
+        """
+        from .errors import ConnectionLost, Timeout
+        import numpy as _np
+        s = self.session(dims, method, **options)
+        request = s.request
+        ticket = s.ticket
+        kept = None  # (seq, values) of the last batch evaluated
+        tries = 0
+        while True:
+            try:
+                while True:
+                    b = s.next()
+                    if b is None:
+                        break
+                    if kept is not None and kept[0] == b.seq and len(kept[1]) == b.count:
+                        v = kept[1]
+                    else:
+                        v = _np.asarray(f(b.points), dtype=_np.float64).reshape(-1)
+                        if len(v) != b.count:
+                            s.close()
+                            raise ValueError("f returned %d values for %d points"
+                                             % (len(v), b.count))
+                        kept = (b.seq, v.copy())
+                    s.tell(v)
+                    if on_report is not None:
+                        on_report(s.report)
+                return s.result()
+            except (ConnectionLost, Timeout):
+                tries += 1
+                if tries > retries:
+                    raise
+                self.reconnect()
+                s = self.resume(ticket, request)
