@@ -424,20 +424,10 @@ class SessionsMixin:
         """Opens an integration session for a function of dims dimensions
         (protocol version 5); returns a qmcd.Session to drive with next()
         and tell().  options: as integrate()'s."""
-        from .sessions import ring_for, session_fields
         fields, request = session_fields(dims, method, **options)
         with self._lock:
             self._need(wire.VERSION_SESSIONS, "sessions")
-            if method in ("auto", "mc", "stratified", "lhs", "qmc", "rqmc") and \
-                    self._ring is None and not self._shm_off and self.unix:
-                # Sampling batches are large: a ring they fit in whole.
-                slots, slot_bytes = ring_for(fields["dims"], fields["max_batch"])
-                try:
-                    self.attach_shm(slots, slot_bytes)
-                except QmcdError:
-                    if self.closed:
-                        raise
-                    self._shm_off = True
+            self._session_ring(fields)
             fields["transport"] = "shm" if self._ring is not None else "inline"
             return self._start_session(wire.SESSION_OPEN, fields, fields["dims"], request)
 
@@ -446,17 +436,30 @@ class SessionsMixin:
         token), on this connection: the batch it waits for is served again.
         The daemon refuses (-ENOENT) a session of another identity, with a
         wrong token, or past its park_ms."""
-        from .sessions import SessionRequest
         sid, token = ticket
         with self._lock:
             self._need(wire.VERSION_SESSIONS, "sessions")
+            if request is not None and request.fields.get("dims"):
+                self._session_ring(request.fields)
             fields = {"session_id": sid, "token": token,
                       "transport": "shm" if self._ring is not None else "inline"}
             return self._start_session(wire.SESSION_RESUME, fields, 0,
                                        request or SessionRequest({}, "f", "auto", 0.95))
 
+    def _session_ring(self, fields):
+        """Sampling batches are large: over a Unix socket, a ring they fit
+        in whole, if none is attached yet and the server takes it."""
+        if fields["method"] in ("auto", "mc", "stratified", "lhs", "qmc", "rqmc") and \
+                self._ring is None and not self._shm_off and self.unix:
+            slots, slot_bytes = ring_for(fields["dims"], fields["max_batch"])
+            try:
+                self.attach_shm(slots, slot_bytes)
+            except QmcdError:
+                if self.closed:
+                    raise
+                self._shm_off = True
+
     def _start_session(self, mtype, fields, dims, request):
-        from .sessions import Session
         rid = self._id()
         s = Session(self, rid, dims, request)
         self._sessions[rid] = s
