@@ -256,6 +256,11 @@ $(BUILD)/bench/bench_integrate: bench/bench_integrate.c $(BENCH_INT_SRC) \
 	$(CC) $(CFLAGS) -O3 -Ibench -o $@ $< $(BENCH_INT_SRC) $(LIBQMC) -lgsl -lgslcblas \
 	  -lcubature $(LDLIBS)
 
+# A session through the daemon against qmc_integrate: a client of every layer.
+$(BUILD)/bench/bench_session_wire: bench/bench_session_wire.c $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -O3 -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+
 # qmc-load, the daemon's load generator, speaks the protocol: every layer.
 QMC_LOAD := $(BUILD)/bench/qmc-load
 $(QMC_LOAD): bench/qmc_load.c $(ALL_LIBS)
@@ -285,6 +290,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(MODBUS_LOAD) $(MODBUS_PEER)
 	$(BUILD)/bench/bench_integrate $(BUILD)/bench | tee $(BUILD)/bench/integrate.txt
 	$(MAKE) --no-print-directory bench-charts-integrate
 	$(BUILD)/bench/bench_session | tee $(BUILD)/bench/session.txt
+	$(BUILD)/bench/bench_session_wire $(QMCD) | tee $(BUILD)/bench/session_wire.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_python.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)

@@ -199,6 +199,7 @@ int qmc__session_new(const qmc_session_spec *spec, int paint, qmc_session **out,
         if (!s->buf || !s->vals || !s->ws)
             goto nomem;
     }
+    s->collect = s->buf;
     s->fiber = qmc__fiber_new(QMC__FIBER_STACK_BYTES, qmc__session_main, s, paint);
     if (!s->fiber)
         goto nomem;
@@ -273,47 +274,52 @@ int qmc_session_ask(qmc_session *s, qmc_session_batch *batch)
     return 0;
 }
 
-int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values, size_t count,
-                     char *why, size_t why_bytes)
+/* The checks of tell, leaving the session as it was on a refusal. */
+static int tell_check(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                      qmc__msg *m)
 {
-    qmc__msg m;
-    qmc__msg_init(&m, why, why_bytes);
     if (!s) {
-        qmc__msg_str(&m, "no session");
+        qmc__msg_str(m, "no session");
         return QMC_EINVAL;
     }
     if (!s->pending) {
-        qmc__msg_str(&m, "the session is done: no batch is waiting for values");
+        qmc__msg_str(m, "the session is done: no batch is waiting for values");
         return QMC_EINVAL;
     }
     if (seq < s->seq) { /* a late answer, or a retry of one that got through */
-        qmc__msg_set(&m, "batch ", seq, " was answered already; batch ");
-        qmc__msg_u64(&m, s->seq);
-        qmc__msg_str(&m, " is waiting");
+        qmc__msg_set(m, "batch ", seq, " was answered already; batch ");
+        qmc__msg_u64(m, s->seq);
+        qmc__msg_str(m, " is waiting");
         return QMC_EINVAL;
     }
     if (!s->served) {
-        qmc__msg_set(&m, "batch ", s->seq, " has not been handed out: ask for it first");
+        qmc__msg_set(m, "batch ", s->seq, " has not been handed out: ask for it first");
         return QMC_EINVAL;
     }
     if (seq != s->seq) {
-        qmc__msg_set(&m, "batch ", seq, " has not been handed out yet; batch ");
-        qmc__msg_u64(&m, s->seq);
-        qmc__msg_str(&m, " is waiting");
+        qmc__msg_set(m, "batch ", seq, " has not been handed out yet; batch ");
+        qmc__msg_u64(m, s->seq);
+        qmc__msg_str(m, " is waiting");
         return QMC_EINVAL;
     }
     if (count != s->count) {
-        qmc__msg_set(&m, "batch ", s->seq, " has ");
-        qmc__msg_u64(&m, s->count);
-        qmc__msg_str(&m, " points; got ");
-        qmc__msg_u64(&m, count);
-        qmc__msg_str(&m, " values");
+        qmc__msg_set(m, "batch ", s->seq, " has ");
+        qmc__msg_u64(m, s->count);
+        qmc__msg_str(m, " points; got ");
+        qmc__msg_u64(m, count);
+        qmc__msg_str(m, " values");
         return QMC_EINVAL;
     }
     if (!values) {
-        qmc__msg_str(&m, "no values");
+        qmc__msg_str(m, "no values");
         return QMC_EINVAL;
     }
+    return 0;
+}
+
+/* Takes the values and runs the integrator on to its next batch. */
+static void tell_run(qmc_session *s, const double *values, size_t count)
+{
     /* memmove: a caller may hand back a buffer of its own that overlaps
      * nothing of ours, but nothing stops it from passing ours. */
     memmove(s->out, values, count * sizeof *values);
@@ -326,7 +332,49 @@ int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values, size_t 
     s->served = 0;
     qmc__fiber_resume(s->fiber);
     settle(s);
+}
+
+int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                     char *why, size_t why_bytes)
+{
+    qmc__msg m;
+    qmc__msg_init(&m, why, why_bytes);
+    int err = tell_check(s, seq, values, count, &m);
+    if (err)
+        return err;
+    s->collect = s->buf;
+    tell_run(s, values, count);
     return 0;
+}
+
+int qmc_session_tell_to(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                        double *next, size_t next_points, char *why, size_t why_bytes)
+{
+    qmc__msg m;
+    qmc__msg_init(&m, why, why_bytes);
+    int err = tell_check(s, seq, values, count, &m);
+    if (err)
+        return err;
+    if (next && (!s->buf || next_points < s->max_batch)) {
+        qmc__msg_set(&m, "a batch buffer of ", next_points, " points; the session assembles ");
+        qmc__msg_u64(&m, s->buf ? s->max_batch : 0);
+        qmc__msg_str(&m, s->buf ? " at once" : " none");
+        return QMC_EINVAL;
+    }
+    s->collect = next ? next : s->buf;
+    tell_run(s, values, count);
+    return 0;
+}
+
+void qmc_session_own_batch(qmc_session *s)
+{
+    if (!s || s->collect == s->buf)
+        return;
+    if (s->pending && s->points == s->collect) {
+        memcpy(s->buf, s->points, s->count * s->spec.dims * sizeof *s->buf);
+        s->points = s->buf;
+    }
+    s->collect = s->buf;
 }
 
 static qmc_session_end end_of(const qmc_session *s)

@@ -35,6 +35,8 @@ struct qmc_session {
     session_mode mode;
     uint64_t max_batch;           /* points */
     double *buf;                  /* max_batch x dims points */
+    double *collect;              /* where batches are assembled: buf, or the
+                                     caller's buffer of qmc_session_tell_to */
     double *vals;                 /* max_batch values */
     size_t fill;                  /* points collected */
     size_t cursor;                /* values replayed */

@@ -68,7 +68,7 @@ static void session_eval(const void *ctx, const double *x, size_t n, uint32_t di
             memset(out, 0, n * sizeof *out);
             return;
         }
-        memcpy(s->buf + s->fill * dims, x, n * dims * sizeof *x);
+        memcpy(s->collect + s->fill * dims, x, n * dims * sizeof *x);
         memset(out, 0, n * sizeof *out);
         s->fill += n;
         return;
@@ -177,7 +177,7 @@ static int session_runner(void *ctx, const qmc_sampling_job *job, uint64_t first
             if (!err && s->fill != points)
                 s->overrun = 1;
             if (!err && !s->overrun)
-                ask_caller(s, s->buf, s->fill, s->vals);
+                ask_caller(s, s->collect, s->fill, s->vals);
             if (s->closing)
                 return QMC_ECANCELED;
             s->mode = MODE_REPLAY;

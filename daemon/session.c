@@ -28,6 +28,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +39,7 @@
 #include "session.h"
 
 static const qmcd_producer_kind sess_kind;
+static void step_done(qmcd_sess *s, int kick);
 
 static qmcd_sess_attach *attach_of(qmcd_producer *p)
 {
@@ -64,17 +66,23 @@ static uint64_t cubature_points(uint32_t d)
     return sat_add((1ull << d), 2ull * d * d + 2ull * d + 1);
 }
 
+/* The most points a batch of whole blocks holds: spec's max_batch, or the
+ * default the core takes (qmc/session.h: 65536, fewer past 63 dims). */
+static uint64_t engine_batch(const qmc_session_spec *spec)
+{
+    if (spec->max_batch)
+        return spec->max_batch;
+    uint64_t fit = QMC_SESSION_BATCH_BYTES / (((uint64_t)spec->dims + 1) * sizeof(double));
+    return fit < QMC_SESSION_MAX_BATCH ? (fit ? fit : 1) : QMC_SESSION_MAX_BATCH;
+}
+
 /* The most points one batch of this session may hold (SESSION_OPENED's
  * max_batch): the sampling engine's batches (docs/SESSIONS.md), 65536
  * points for auto's VEGAS pilot, 256 for the tensor and Clenshaw-Curtis
  * grids, a cubature region's rule. */
 static uint64_t largest_batch(const qmc_session_spec *spec)
 {
-    uint64_t pts = spec->max_batch;
-    if (!pts) {
-        uint64_t fit = QMC_SESSION_BATCH_BYTES / (((uint64_t)spec->dims + 1) * sizeof(double));
-        pts = fit < QMC_SESSION_MAX_BATCH ? (fit ? fit : 1) : QMC_SESSION_MAX_BATCH;
-    }
+    const uint64_t pts = engine_batch(spec);
     uint64_t most = pts > 65536 ? pts : 65536;
     qmc_method m = spec->integrate.method;
     if (m == QMC_METHOD_CUBATURE || m == QMC_METHOD_AUTO) {
@@ -231,6 +239,54 @@ static int send_piece(qmcd_conn *c, qmcd_sess_attach *a)
     return QMCD_PUMP_SENT | (s->sent == s->batch.count ? QMCD_PUMP_FLUSH : 0);
 }
 
+/* The ring's next free slot, as room for a whole batch of the sampling
+ * engine's and its values (*slot, *points), when the client takes batches
+ * through its ring and the answer to the batch fits the output buffer;
+ * else NULL. */
+static double *next_slot(qmcd_conn *c, const qmcd_sess *s, uint32_t *slot, size_t *points)
+{
+    qmcd_ring *r = qmcd_conn_ring(c);
+    const uint64_t row = ((uint64_t)s->spec.dims + 1) * 8;
+    if (s->transport != QMC_TRANSPORT_SHM || !r || qmcd_ring_full(r) ||
+        s->engine_batch > r->slot_bytes / row || qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
+        return NULL;
+    *points = r->slot_bytes / row;
+    return (double *)(void *)qmcd_ring_next(r, slot);
+}
+
+/* The step just assembled the batch in ring slot `slot`: the report, and
+ * the batch as one piece naming that slot, now. */
+static void send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot)
+{
+    qmcd_sess *s = a->s;
+    qmcd_ring *r = qmcd_conn_ring(c);
+    qmc_msg m;
+    if (s->owe_report) {
+        s->owe_report = 0;
+        report_of(s, &m, a->p.request_id);
+        if (qmcd_conn_send(c, &m) != 0)
+            return;
+    }
+    memset(&m, 0, sizeof m);
+    m.type = QMC_MSG_SESSION_BATCH;
+    m.request_id = a->p.request_id;
+    qmc_msg_session_batch *b = &m.u.session_batch;
+    b->seq = s->batch.seq;
+    b->count = b->points = (uint32_t)s->batch.count;
+    b->dims = s->spec.dims;
+    b->transport = QMC_TRANSPORT_SHM;
+    b->slot = slot;
+    b->data_len = (uint32_t)(s->batch.count * s->spec.dims * 8);
+    if (qmcd_conn_send(c, &m) != 0)
+        return;
+    (void)qmcd_ring_hand_out(r);
+    s->ring = 1;
+    s->n_pieces = 0;
+    s->pieces[s->n_pieces++] = (qmcd_sess_piece){0, (uint32_t)s->batch.count, slot,
+                                                 r->handed_total};
+    s->sent = s->batch.count;
+}
+
 /* ---- the producer ----------------------------------------------------------------------- */
 
 static int sess_pump(qmcd_conn *c, qmcd_producer *p)
@@ -319,6 +375,17 @@ static int sess_shutdown(qmcd_conn *c, qmcd_producer *p)
     return 1;
 }
 
+/* A waiting batch assembled in a ring slot (send_in_slot) moves into the
+ * session's own buffer, before the ring it sits in goes or changes hands. */
+static void home_batch(qmcd_sess *s)
+{
+    if (s->stepping || !s->core)
+        return;
+    qmc_session_own_batch(s->core);
+    if (s->have_batch && qmc_session_ask(s->core, &s->batch) != 0)
+        s->have_batch = 0; /* only for NULL arguments */
+}
+
 /* Forgets the batch's pieces and values on the way: the next connection
  * is sent the batch again whole. */
 static void rewind_batch(qmcd_sess *s)
@@ -337,6 +404,7 @@ static void sess_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
     if (!s)
         return;
     s->a = NULL;
+    home_batch(s); /* out of the connection's ring, which goes with it */
     if (why == QMCD_END_DONE || why == QMCD_END_FAILED || !s->announced) {
         /* Answered to its end - or never announced to its client, who
          * holds no token to resume it with. */
@@ -348,6 +416,13 @@ static void sess_release(qmcd_conn *c, qmcd_producer *p, qmcd_end why)
     qmcd__sessions_park(s);
 }
 
+/* The pool's done callback for a session's step. */
+static void task_done(qmcd_server *srv, qmcd_pool_task *task)
+{
+    (void)srv;
+    step_done((qmcd_sess *)task, 1);
+}
+
 static const qmcd_producer_kind sess_kind = {
     .name = "session",
     .flags = QMCD_PRODUCER_BULK,
@@ -357,7 +432,11 @@ static const qmcd_producer_kind sess_kind = {
     .release = sess_release,
 };
 
-void qmcd__sess_step_done(qmcd_sess *s, int kick)
+/* A step came back (loop thread): answer on the attachment (kicking its
+ * connection when kick is set: from the pool; a step run inside a
+ * request's handler is pumped after it), or leave the session parked, or
+ * free it. */
+static void step_done(qmcd_sess *s, int kick)
 {
     s->stepping = 0;
     if (s->orphan) {
@@ -492,7 +571,9 @@ static void on_open(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         return;
     }
     s->spec = spec;
+    s->task.done = task_done;
     s->max_batch = max_batch;
+    s->engine_batch = engine_batch(&spec);
     s->transport = o->transport;
     s->owe_opened = 1;
     qmcd_debug("conn %llu: session %llu opening (%s, %u dims, %llu bytes)",
@@ -634,7 +715,22 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         const qmcd_ring *r = qmcd_conn_ring(c);
         data = r->base + (size_t)p->slot * r->slot_bytes + (size_t)p->points * s->spec.dims * 8;
     }
-    if (s->vals_cap < b->count) {
+    qmcd_pool_tenant *tenant;
+    if (qmcd_conn_tenant(c, &tenant) != 0) {
+        refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
+        return;
+    }
+    /* The whole batch's values in one frame, and a step that runs now,
+     * here: it reads them where they are (the frame, or the ring slot -
+     * which the client cannot get back before this handler returns).
+     * Otherwise they are copied out now: the slot goes back to the client
+     * as soon as it likes.  NaN or infinite values are counted, never
+     * refused (the integrator flags them). */
+    const double *in_place = NULL;
+    if (v->count == b->count && qmcd__sess_tell_now(s) &&
+        ((uintptr_t)data & (sizeof(double) - 1)) == 0)
+        in_place = (const double *)(const void *)data;
+    if (!in_place && s->vals_cap < b->count) {
         double *nv = realloc(s->vals, b->count * sizeof *nv);
         if (!nv) {
             refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
@@ -643,25 +739,32 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         s->vals = nv;
         s->vals_cap = b->count;
     }
-    /* Copied out now: the ring slot goes back to the client as soon as it
-     * likes, and NaN or infinite values are counted, never refused. */
-    double *dst = s->vals + s->got;
-    memcpy(dst, data, (size_t)v->count * 8);
+    const double *got = in_place;
+    if (!got) {
+        memcpy(s->vals + s->got, data, (size_t)v->count * 8);
+        got = s->vals + s->got;
+    }
     uint64_t nonfinite = 0;
     for (uint32_t i = 0; i < v->count; i++)
-        nonfinite += !isfinite(dst[i]);
+        nonfinite += !isfinite(got[i]);
     srv->stats.session_nonfinite += nonfinite;
     s->got += v->count;
     if (s->got < b->count)
         return;
     srv->stats.session_batches++;
     srv->stats.session_values += b->count;
-    qmcd_pool_tenant *tenant;
-    if (qmcd_conn_tenant(c, &tenant) != 0) {
-        refuse_values(c, s, m->request_id, QMC_ENOMEM, "session %llu: out of memory", id);
-        return;
-    }
-    qmcd__sess_start_tell(s, tenant);
+    /* A step run here, for a client that takes batches through its ring:
+     * the next batch is assembled straight into the ring's next free slot
+     * (no copy of its points), and sent from here, before any other
+     * producer of the connection could take that slot. */
+    uint32_t slot = 0;
+    size_t next_points = 0;
+    double *next = in_place ? next_slot(c, s, &slot, &next_points) : NULL;
+    if (!qmcd__sess_start_tell(s, tenant, in_place, next, next_points))
+        return; /* on the pool: task_done */
+    step_done(s, 0); /* the connection pumps after this request */
+    if (next && s->a && !s->stepping && s->have_batch && s->batch.points == next)
+        send_in_slot(c, s->a, slot);
 }
 
 static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
@@ -699,6 +802,7 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
                               "session %llu was resumed on another connection",
                               (unsigned long long)s->id);
         old->s = NULL;
+        home_batch(s); /* out of the old connection's ring */
         qmcd_conn_kick(old->c); /* its pump lets the attachment go */
     } else {
         qmcd__sessions_unpark(s);

@@ -69,6 +69,7 @@ struct qmcd_sess {
     uint64_t mem_bytes;           /* counted against the session caps */
     uint64_t pool_bytes;          /* kept against max-jobs-memory-total */
     uint64_t max_batch;           /* the most points a batch may hold */
+    uint64_t engine_batch;        /* the most a batch of whole blocks holds */
     qmc_points_transport transport; /* what the attached client asked for */
 
     /* Steps: one at a time, on the pool or the loop. */
@@ -79,7 +80,7 @@ struct qmcd_sess {
     unsigned polls;               /* hook calls in this step */
     int64_t step_start_ms;
     int64_t step_limit_ms;        /* job-time-limit-ms, copied on the loop */
-    int64_t last_step_us;         /* the last step's time: cheap ones stay on the loop */
+    int64_t last_step_us;         /* the last step's CPU time: cheap ones stay on the loop */
     double compute_s;             /* the steps' time, for SESSION_RESULT */
     int err;                      /* the opening's refusal, or the end's error */
     char why[512];
@@ -137,21 +138,28 @@ void qmcd__sessions_free(qmcd_sess *s);
 /* ---- session_step.c --------------------------------------------------------------- */
 
 /* Starts the opening step (qmc_session_new) on the pool under tenant;
- * the session's memory waits for max-jobs-memory-total there like a job's. */
+ * the session's memory waits for max-jobs-memory-total there like a job's.
+ * s->task.done (the caller's) takes the step back on the loop. */
 void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant);
+/* 1 when the next step runs at once, on the loop thread (the last one was
+ * cheap): its values may then be read where they arrived. */
+int qmcd__sess_tell_now(const qmcd_sess *s);
 /* All the batch's values are in: the next step (qmc_session_tell), on the
- * loop when the last steps were cheap, else on the pool under tenant. */
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant);
+ * loop when the last steps were cheap (from values when not NULL, else
+ * s->vals; and assembling the next batch at next, room for next_points
+ * points, when not NULL: a free ring slot), else on the pool under tenant
+ * (from s->vals, in the session's own buffer). */
+/* Returns 1 when the step ran at once (the caller ends it), 0 when it was
+ * submitted (s->task.done ends it). */
+int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                          double *next, size_t next_points);
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 
-/* A step came back (loop thread): answer on the attachment (kicking its
- * connection when kick is set: from the pool; a step run inside a
- * request's handler is pumped after it), or leave the session parked, or
- * free it. */
-void qmcd__sess_step_done(qmcd_sess *s, int kick);
+/* (session.c's step_done takes a step back on the loop: answers on the
+ * attachment, leaves the session parked, or frees it.) */
 
 #endif

@@ -7,11 +7,15 @@
  * The integrator runs on the session's fiber (core/fiber.c), so a step may
  * run on any thread: the opening always on the worker pool (it may set up
  * a method's tables, or a sequence of thousands of dimensions), a step on
- * the pool too unless the session's last step took under INLINE_STEP_US,
- * when it runs at once on the loop thread - a round trip through the pool
- * (two thread wake-ups) would cost more than the step, and the loop stays
- * responsive because only cheap steps run there, each measured again.
- * Between steps a session holds no thread.
+ * the pool too unless the session's last step took under INLINE_STEP_US
+ * of CPU time, when it runs at once on the loop thread, reading its values
+ * where they arrived - a round trip through the pool (four thread
+ * wake-ups: runner, worker slot, runner, loop) would cost more than such a
+ * step, and the loop stays responsive because only cheap steps run there,
+ * each measured again.  CPU time, not wall time: on a loaded machine a
+ * step preempted halfway would otherwise look expensive and move to the
+ * pool, where it is slower still.  Between steps a session holds no
+ * thread.
  *
  * The opening task reserves the session's memory against
  * max-jobs-memory-total as a job does (it waits for it in the pool's
@@ -22,26 +26,34 @@
  * hook does.
  *
  * Must not: touch a connection or send anything (session.c answers when
- * the step is back), or read the configuration from a worker (what a step
- * needs is copied into the session on the loop).
+ * the step is back: the pool hands the task to its done callback, which
+ * session.c sets), call into session.c, or read the configuration from a
+ * worker (what a step needs is copied into the session on the loop).
  */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 #include "log.h"
 #include "session.h"
 
-/* A step under this (measured on the last one) runs on the loop thread. */
-#define INLINE_STEP_US 500
+/* A step under this much CPU time (measured on the last one) runs on the
+ * loop thread: a 65536-point sampling batch in 4 dimensions takes about
+ * 0.9 ms (bench_session_wire), which still lets the loop answer others
+ * within a few milliseconds. */
+#define INLINE_STEP_US 20000
 /* The hook reads the clock (and offers the pool slot) every so many
  * calls: as jobs.c does, a few milliseconds of work apart at most. */
 #define POLL_CLOCK_EVERY 16
 
-static int64_t now_us(void)
+/* The calling thread's CPU time, in microseconds. */
+static int64_t cpu_us(void)
 {
-    return qmcd_now_us();
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
 /* The interrupt hook of the session's integrator (spec.integrate.interrupt),
@@ -63,10 +75,13 @@ static int sess_interrupt(void *ctx)
     return 0;
 }
 
-/* One step, on whichever thread runs it. */
-static void step(qmcd_sess *s)
+/* One step, on whichever thread runs it; values: the batch's values
+ * (s->vals, or where they arrived for a step run at once); next, when not
+ * NULL, where the next batch of whole blocks is to be assembled (a ring
+ * slot: qmc_session_tell_to), room for next_points points. */
+static void step(qmcd_sess *s, const double *values, double *next, size_t next_points)
 {
-    const int64_t t0 = now_us();
+    const int64_t t0 = qmcd_now_us(), c0 = cpu_us();
     s->polls = 0;
     s->step_start_ms = t0 / 1000;
     if (s->opening) {
@@ -76,11 +91,17 @@ static void step(qmcd_sess *s)
                      ? -ECANCELED
                      : qmc_session_new(&s->spec, &s->core, s->why, sizeof s->why);
     } else {
-        s->err = qmc_session_tell(s->core, s->batch.seq, s->vals, s->batch.count, s->why,
-                                  sizeof s->why);
+        s->err = next ? qmc_session_tell_to(s->core, s->batch.seq, values, s->batch.count,
+                                            next, next_points, s->why, sizeof s->why)
+                      : QMC_EINVAL;
+        /* Without a buffer of its own to stand in for (a rule), or one too
+         * small, the refusal took nothing: the session's own buffer then. */
+        if (s->err == QMC_EINVAL)
+            s->err = qmc_session_tell(s->core, s->batch.seq, values, s->batch.count, s->why,
+                                      sizeof s->why);
     }
-    s->last_step_us = now_us() - t0;
-    s->compute_s += (double)s->last_step_us / 1e6;
+    s->last_step_us = cpu_us() - c0;
+    s->compute_s += (double)(qmcd_now_us() - t0) / 1e6;
 }
 
 static void task_run(qmcd_pool_task *task)
@@ -89,7 +110,7 @@ static void task_run(qmcd_pool_task *task)
     s->on_pool = 1;
     if (s->opening)
         s->pool_bytes = qmcd_pool_memory_keep(task); /* for the session's life */
-    step(s);
+    step(s, s->vals, NULL, 0);
     s->on_pool = 0;
 }
 
@@ -97,12 +118,6 @@ static void task_run(qmcd_pool_task *task)
 static int task_must_stop(qmcd_pool_task *task)
 {
     return atomic_load(&((qmcd_sess *)task)->cancel) != SESS_GO;
-}
-
-static void task_done(qmcd_server *srv, qmcd_pool_task *task)
-{
-    (void)srv;
-    qmcd__sess_step_done((qmcd_sess *)task, 1);
 }
 
 /* At exit, back from the pool after the registry let go of it. */
@@ -115,8 +130,7 @@ static void submit(qmcd_sess *s, qmcd_pool_tenant *tenant, uint64_t mem_bytes)
 {
     s->task.run = task_run;
     s->task.must_stop = task_must_stop;
-    s->task.done = task_done;
-    s->task.free_fn = task_free;
+    s->task.free_fn = task_free; /* task.done is session.c's */
     s->task.mem_bytes = mem_bytes;
     s->stepping = 1;
     s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
@@ -129,17 +143,23 @@ void qmcd__sess_start_open(qmcd_sess *s, qmcd_pool_tenant *tenant)
     submit(s, tenant, s->mem_bytes);
 }
 
-void qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant)
+int qmcd__sess_tell_now(const qmcd_sess *s)
+{
+    return s->last_step_us >= 0 && s->last_step_us < INLINE_STEP_US;
+}
+
+int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *values,
+                          double *next, size_t next_points)
 {
     s->opening = 0;
-    if (s->last_step_us >= 0 && s->last_step_us < INLINE_STEP_US) {
+    if (qmcd__sess_tell_now(s)) {
         s->stepping = 1;
         s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
-        step(s);
-        qmcd__sess_step_done(s, 0); /* the connection pumps after this request */
-        return;
+        step(s, values ? values : s->vals, next, next_points);
+        return 1;
     }
     submit(s, tenant, 0);
+    return 0;
 }
 
 void qmcd__sess_settle(qmcd_sess *s)

@@ -79,11 +79,26 @@ static const known_stat known[] = {
     {"refused_job_memory", 0, "INTEGRATEs refused: alone over max-jobs-memory-total."},
     {"job_memory_waits", 0, "Jobs that waited for max-jobs-memory-total before they ran."},
     {"job_memory_backfills", 0, "Jobs that started ahead of a job waiting for its memory."},
+    {"sessions_opened", 0, "Integration sessions opened."},
+    {"sessions_done", 0, "Sessions that ended with a result."},
+    {"sessions_failed", 0, "Sessions that ended in an error."},
+    {"sessions_closed", 0, "Sessions closed by SESSION_CLOSE."},
+    {"sessions_parked", 0, "Times a session's connection went and it was kept for a resume."},
+    {"sessions_resumed", 0, "Sessions taken up again by SESSION_RESUME."},
+    {"sessions_expired", 0, "Parked sessions freed after session-idle-timeout-ms."},
+    {"refused_sessions", 0, "SESSION_OPENs refused by a session or memory cap."},
+    {"refused_session_values", 0, "SESSION_VALUES refused."},
+    {"session_batches", 0, "Session batches whose values were all taken."},
+    {"session_values", 0, "Values taken from clients in session batches."},
+    {"session_nonfinite_values", 0, "Session values that were NaN or infinite."},
     {"connections_open", 1, "Connections open now."},
     {"jobs_open", 1, "Jobs queued or running now."},
     {"job_memory_reserved_bytes", 1, "Bytes of max-jobs-memory-total reserved by running "
                                      "jobs now."},
     {"job_memory_waiting", 1, "1 while a job waits for its memory (others may backfill)."},
+    {"sessions_open", 1, "Integration sessions open now, attached or parked."},
+    {"sessions_parked_now", 1, "Sessions parked now (their connection gone)."},
+    {"session_memory_reserved_bytes", 1, "Bytes the open sessions reserve."},
 };
 
 enum { FAM_MAX = 256, SAMPLES_MAX = 256, NAME_BYTES = 96 };

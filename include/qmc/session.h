@@ -158,6 +158,31 @@ QMC_MUST_CHECK int qmc_session_ask(qmc_session *s, qmc_session_batch *batch);
 QMC_MUST_CHECK int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values,
                                     size_t count, char *why, size_t why_bytes);
 
+/*
+ * As qmc_session_tell, and the batches of whole blocks the integrator
+ * assembles next (sampling methods, auto's RQMC) are written at next -
+ * room for next_points points of dims coordinates, at least the session's
+ * max_batch - instead of the session's own buffer (NULL: its own).  For a
+ * server that hands batches out through memory it shares with its client
+ * (qmcd's ring slots): the points go there once, not through a copy.  The
+ * session only writes next, never reads the points back (it makes them
+ * again to take the values), so what anyone else writes there changes only
+ * what ask hands out.  next must stay valid while the batch assembled there
+ * waits (until the next tell), or be given up first with
+ * qmc_session_own_batch.  Errors as qmc_session_tell, and QMC_EINVAL for a
+ * next of fewer points than max_batch or a session that assembles no
+ * batches (before anything is taken).
+ */
+QMC_MUST_CHECK int qmc_session_tell_to(qmc_session *s, uint64_t seq, const double *values,
+                                       size_t count, double *next, size_t next_points,
+                                       char *why, size_t why_bytes);
+
+/* A waiting batch assembled in a caller's buffer (qmc_session_tell_to) is
+ * copied into the session's own, which ask then hands out, so that buffer
+ * may go; later batches are assembled in the session's own too.  No-op
+ * otherwise (NULL too). */
+void qmc_session_own_batch(qmc_session *s);
+
 typedef struct qmc_session_report {
     qmc_session_end end;    /* QMC_SESSION_RUNNING until done */
     int err;                /* QMC_SESSION_FAILED: the integrator's QMC_E* code */

@@ -1,0 +1,192 @@
+/*
+ * test_session_buffer.c - qmc_session_tell_to and qmc_session_own_batch:
+ * batches assembled in a caller's buffers (as qmcd assembles them in its
+ * client's ring slots) give qmc_integrate's result bit for bit; ask hands
+ * out exactly the caller's buffer; what another party writes there after
+ * the batch is handed out changes nothing the session computes; own_batch
+ * moves a waiting batch home before its buffer goes; and the refusals
+ * leave the session as it was.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "qmc/session.h"
+#include "session_drive.h"
+
+enum { DIMS = 3 };
+
+static qmc_integrate_spec rqmc_spec(void)
+{
+    qmc_integrate_spec is;
+    qmc_integrate_spec_init(&is);
+    is.method = QMC_METHOD_RQMC;
+    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
+    is.sampling.n = 8192;
+    is.sampling.reps = 8;
+    is.n_given = 1;
+    return is;
+}
+
+/* Drives s to its end, each batch told with tell_to into one of two
+ * buffers in turn (two ring slots), scribbling over each batch's points
+ * once its values are computed, as a careless or hostile client could. */
+static void drive_two_buffers(qmc_session *s, const qmc_integrand *f, double *a, double *b,
+                              size_t cap, outcome *o)
+{
+    double *vals = malloc(cap * sizeof *vals);
+    assert_non_null(vals);
+    memset(o, 0, sizeof *o);
+    for (uint64_t k = 0;; k++) {
+        qmc_session_batch bt;
+        assert_int_equal(qmc_session_ask(s, &bt), 0);
+        if (bt.count == 0)
+            break;
+        if (k > 0) /* batch k was assembled where tell_to said */
+            assert_ptr_equal(bt.points, (k % 2) ? a : b);
+        f->eval(f->ctx, bt.points, bt.count, bt.dims, vals);
+        memset((void *)bt.points, 0xff, bt.count * bt.dims * sizeof(double)); /* NaNs */
+        double *next = (k % 2) ? b : a;
+        assert_int_equal(qmc_session_tell_to(s, bt.seq, vals, bt.count, next, cap, o->why,
+                                             sizeof o->why),
+                         0);
+        o->batches++;
+    }
+    o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
+    qmc_session_status(s, &o->status);
+    free(vals);
+}
+
+static void test_same_bytes(void **state)
+{
+    (void)state;
+    problem p = session_test_make("genz-gaussian", DIMS, NULL, NULL);
+    qmc_integrate_spec is = rqmc_spec();
+    outcome want = session_test_via_integrate(&is, p.f);
+    for (uint64_t max_batch = 4096; max_batch <= 65536; max_batch *= 4) {
+        qmc_session_spec ss;
+        session_test_spec(&ss, &is, p.f);
+        ss.max_batch = max_batch;
+        size_t cap = (size_t)max_batch;
+        double *a = malloc(cap * DIMS * sizeof *a), *b = malloc(cap * DIMS * sizeof *b);
+        assert_non_null(a);
+        assert_non_null(b);
+        qmc_session *s;
+        char why[256];
+        assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+        outcome got;
+        drive_two_buffers(s, p.f, a, b, cap, &got);
+        session_test_assert_same(&got, &want, "rqmc through two caller buffers");
+        assert_int_equal(got.batches, 65536 / max_batch); /* 8 x 8192 points */
+        qmc_session_free(s);
+        free(a);
+        free(b);
+    }
+    qmc_testfn_free(p.fn);
+}
+
+/* own_batch: the waiting batch moves into the session's own buffer, the
+ * same points; scribbling the caller's buffer afterwards changes nothing. */
+static void test_own_batch(void **state)
+{
+    (void)state;
+    problem p = session_test_make("genz-oscillatory", DIMS, NULL, NULL);
+    qmc_integrate_spec is = rqmc_spec();
+    outcome want = session_test_via_integrate(&is, p.f);
+    qmc_session_spec ss;
+    session_test_spec(&ss, &is, p.f);
+    ss.max_batch = 16384;
+    const size_t cap = 16384;
+    double *slot = malloc(cap * DIMS * sizeof *slot), *copy = malloc(cap * DIMS * sizeof *copy);
+    double *vals = malloc(cap * sizeof *vals);
+    assert_true(slot && copy && vals);
+    qmc_session *s;
+    char why[256];
+    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    qmc_session_batch b;
+    assert_int_equal(qmc_session_ask(s, &b), 0);
+    p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
+    assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, slot, cap, why, sizeof why), 0);
+    assert_int_equal(qmc_session_ask(s, &b), 0);
+    assert_ptr_equal(b.points, slot);
+    memcpy(copy, b.points, b.count * DIMS * sizeof *copy);
+    qmc_session_own_batch(s);
+    memset(slot, 0xff, cap * DIMS * sizeof *slot);
+    qmc_session_batch again;
+    assert_int_equal(qmc_session_ask(s, &again), 0);
+    assert_true(again.points != slot && again.seq == b.seq && again.count == b.count);
+    assert_memory_equal(again.points, copy, b.count * DIMS * sizeof *copy);
+    outcome got;
+    session_test_drive(s, p.f, &got);
+    session_test_assert_same(&got, &want, "rqmc after own_batch");
+    qmc_session_own_batch(s); /* done: a no-op */
+    qmc_session_own_batch(NULL);
+    qmc_session_free(s);
+    free(slot);
+    free(copy);
+    free(vals);
+    qmc_testfn_free(p.fn);
+}
+
+/* Refusals take nothing: the same batch still waits. */
+static void test_refusals(void **state)
+{
+    (void)state;
+    problem p = session_test_make("genz-gaussian", DIMS, NULL, NULL);
+    qmc_integrate_spec is = rqmc_spec();
+    qmc_session_spec ss;
+    session_test_spec(&ss, &is, p.f);
+    ss.max_batch = 8192;
+    double *buf = malloc(8192 * DIMS * sizeof *buf), *vals = calloc(8192, sizeof *vals);
+    assert_true(buf && vals);
+    qmc_session *s;
+    char why[256];
+    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    qmc_session_batch b;
+    assert_int_equal(qmc_session_ask(s, &b), 0);
+    assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, buf, 8191, why, sizeof why),
+                     QMC_EINVAL);
+    assert_non_null(strstr(why, "8191"));
+    assert_int_equal(qmc_session_tell_to(s, b.seq + 1, vals, b.count, buf, 8192, why,
+                                         sizeof why),
+                     QMC_EINVAL);
+    qmc_session_batch same;
+    assert_int_equal(qmc_session_ask(s, &same), 0);
+    assert_true(same.seq == b.seq && same.points == b.points && same.count == b.count);
+    qmc_session_free(s);
+    /* A rule assembles no batches: no buffer of its own to stand in for. */
+    problem q = session_test_make("exp", 1, NULL, NULL);
+    qmc_integrate_spec gk;
+    qmc_integrate_spec_init(&gk);
+    gk.method = QMC_METHOD_GAUSS_KRONROD;
+    session_test_spec(&ss, &gk, q.f);
+    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    assert_int_equal(qmc_session_ask(s, &b), 0);
+    assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, buf, 8192, why, sizeof why),
+                     QMC_EINVAL);
+    assert_non_null(strstr(why, "none"));
+    /* NULL: the session's own buffer, as plain tell. */
+    q.f->eval(q.f->ctx, b.points, b.count, b.dims, vals);
+    assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, NULL, 0, why, sizeof why), 0);
+    qmc_session_free(s);
+    free(buf);
+    free(vals);
+    qmc_testfn_free(p.fn);
+    qmc_testfn_free(q.fn);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_same_bytes),
+        cmocka_unit_test(test_own_batch),
+        cmocka_unit_test(test_refusals),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
