@@ -310,6 +310,7 @@ bench: deps-bench all $(BENCH_BIN) $(QMC_LOAD) $(PIXELS_LOAD) $(MODBUS_LOAD) $(M
 	/usr/bin/python3 bench/bench_command.py $(QMC) $(BUILD)/bench | tee $(BUILD)/bench/command.txt
 	sh bench/bench_daemon.sh $(BUILD)
 	sh bench/bench_pixels_remote.sh $(BUILD)
+	sh bench/bench_python.sh $(BUILD)
 	sh bench/bench_modbus.sh $(BUILD)
 
 # Every chart twice, PNG and SVG side by side (each .gp script takes png=

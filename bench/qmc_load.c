@@ -22,7 +22,13 @@
  *                   ring (--slots, --slot-bytes; PROTOCOL.md section 10)
  *                   fetched by libqmcclient as any client would: each
  *                   chunk is touched (one byte read, as --inprocess does)
- *                   and its slot released.
+ *                   and its slot released.  With --into the stream is
+ *                   qmc_client_points instead: every chunk copied into one
+ *                   array of the whole result, allocated and faulted in
+ *                   once before the runs and reused (what a program that
+ *                   wants the points in memory does; the Python client's
+ *                   bench, bench/bench_python.sh, compares its numpy path
+ *                   with it).
  *   --inprocess     the same points generated here with qmc_seq_fill, in
  *                   chunks of the size the daemon uses, into one reused
  *                   buffer: the rate the socket path is measured against.
@@ -85,6 +91,7 @@ typedef struct opts {
     unsigned repeat;            /* bulk and inprocess: runs, median reported */
     long rss_pid;
     int shm;                    /* bulk through a shared-memory ring */
+    int into;                   /* --shm: copied into one array, reused */
     uint32_t slots, slot_bytes; /* its geometry */
 } opts;
 
@@ -94,7 +101,8 @@ static const char usage[] =
     "                [--seq KIND] [--dims D] [--count N] [--format F] [--scramble S]\n"
     "                [--seed N] [--timeout S]\n"
     "       qmc-load --bulk --connect ENDPOINT [--dims D] [--count N] [--format F]\n"
-    "                [--repeat R] [--rss-pid PID] [--shm [--slots S] [--slot-bytes B]]\n"
+    "                [--repeat R] [--rss-pid PID] [--shm [--slots S] [--slot-bytes B]\n"
+    "                [--into]]\n"
     "       qmc-load --inprocess | --unix-ceiling [--dims D] [--count N] [--format F]\n"
     "                [--repeat R]\n"
     "Load defaults: 50 clients, 1 thread, pipeline 1, 100000 requests, mix ping=1,\n"
@@ -102,7 +110,8 @@ static const char usage[] =
     "4194304 points, f64, 3 runs (median).  --timeout (default 60 s) bounds any run;\n"
     "with both --requests and --seconds a run stops at whichever comes first.\n"
     "--unix-ceiling: the same bytes through a socketpair, no generation (the bound).\n"
-    "--shm: bulk through a shared-memory ring (unix: only), default 8 slots of 1 MiB.\n";
+    "--shm: bulk through a shared-memory ring (unix: only), default 8 slots of 1 MiB;\n"
+    "--into: each run copies the points into one array (qmc_client_points).\n";
 
 static void die(const char *what)
 {
@@ -175,6 +184,10 @@ static void parse_args(int argc, char **argv, opts *o)
         }
         if (strcmp(a, "--shm") == 0) {
             o->shm = 1;
+            continue;
+        }
+        if (strcmp(a, "--into") == 0) {
+            o->into = 1;
             continue;
         }
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -1034,22 +1047,44 @@ static int run_bulk_shm(const opts *o)
     k.rss_peak = rss_before;
     double secs[64];
     unsigned runs = o->repeat > 64 ? 64 : o->repeat;
+    /* --into: the array is allocated and faulted in before the clock, so
+     * the runs time the client and not the kernel's page faults (which
+     * on a virtual machine vary by 10x from run to run). */
+    uint8_t *out = NULL;
+    if (o->into && !(out = malloc((size_t)o->count * row))) {
+        fprintf(stderr, "qmc-load: no memory for %llu points\n", (unsigned long long)o->count);
+        qmc_client_close(c);
+        return 1;
+    }
+    if (out)
+        memset(out, 0, (size_t)o->count * row);
     for (unsigned r = 0; r < runs; r++) {
         uint64_t t0 = now_ns();
-        err = qmc_client_points_stream(c, &o->seq, 0, o->count, o->format, touch_chunk, &k);
+        if (o->into) {
+            err = qmc_client_points(c, &o->seq, 0, o->count, o->format, out,
+                                    (size_t)o->count * row);
+            k.sink ^= ((volatile uint8_t *)out)[(size_t)o->count * row / 2];
+        } else {
+            err = qmc_client_points_stream(c, &o->seq, 0, o->count, o->format, touch_chunk,
+                                           &k);
+        }
         secs[r] = (double)(now_ns() - t0) / 1e9;
         if (err) {
             fprintf(stderr, "qmc-load: %s\n", qmc_client_last_error(c));
+            free(out);
             qmc_client_close(c);
             return 1;
         }
     }
+    free(out);
     long rss_after = rss_settled(o);
     qmc_client_close(c);
-    print_rate("bulk-shm", o, secs, runs, (uint64_t)o->count * row);
-    printf(" frames=%llu slots=%u slot_bytes=%u rss_before_kib=%ld rss_peak_kib=%ld "
-           "rss_after_kib=%ld\n", (unsigned long long)k.chunks, o->slots, o->slot_bytes,
-           rss_before, k.rss_peak, rss_after);
+    print_rate(o->into ? "bulk-shm-into" : "bulk-shm", o, secs, runs,
+               (uint64_t)o->count * row);
+    if (!o->into) /* qmc_client_points hands no chunk to count */
+        printf(" frames=%llu", (unsigned long long)k.chunks);
+    printf(" slots=%u slot_bytes=%u rss_before_kib=%ld rss_peak_kib=%ld rss_after_kib=%ld\n",
+           o->slots, o->slot_bytes, rss_before, k.rss_peak, rss_after);
     return 0;
 }
 

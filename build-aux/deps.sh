@@ -22,8 +22,16 @@ set -eu
 #          metapackage of optional plugins (elasticsearch, hdf5, ipmi, ...)
 #          and libhwloc-plugins adds hwloc's PCI and GPU discovery; the test
 #          runs without either.
+#          The Python client (client/python, tests/e2e/test_python_client.sh)
+#          needs numpy (python3-numpy: scipy depends on it, named here since
+#          the client imports it itself) and installs itself offline with
+#          pip and Debian's setuptools and wheel (python3-pip,
+#          python3-setuptools, python3-wheel; pip's Recommends,
+#          build-essential and python3-dev, are for compiled extensions and
+#          the client has none).
 pkgs_build="gcc libc6-dev make pkg-config libsystemd-dev libmodbus-dev libsodium-dev"
-pkgs_test="libcmocka-dev clang libclang-rt-14-dev python3 python3-scipy \
+pkgs_test="libcmocka-dev clang libclang-rt-14-dev python3 python3-scipy python3-numpy \
+python3-pip python3-setuptools python3-wheel \
 python3-pymodbus python3-serial-asyncio mbpoll socat haproxy valgrind systemd \
 man-db groff-base gnuplot-nox procps \
 munge slurmctld slurmd slurm-client slurm-wlm-basic-plugins"

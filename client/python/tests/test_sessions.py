@@ -1,0 +1,361 @@
+"""Integration sessions (protocol version 5) from Python: a function
+written here in numpy, computing the same values as a built-in integrand
+of libqmc (the same IEEE operations in the same order, libm's exp, pow and
+through Python's math), gives `qmc integrate`'s result for that integrand
+bit for bit - the daemon's promise that a session equals INTEGRATE,
+checked from the outside - over the ring and inline, at small batches;
+a dropped connection is resumed with the batch's values sent again, not
+recomputed; a ticket resumes from another client; NaN values are counted
+and flagged; close() ends it; a fake server's broken session frames and
+refusals are met with clear exceptions; a version-4 server is refused
+before anything is sent."""
+import json
+import math
+import unittest
+
+import numpy as np
+
+import support
+import qmcd
+from qmcd import wire, errors
+from pinproxy import CutProxy
+from test_hostile import Fake, read_frame, hello_ok, T
+
+
+def setUpModule():
+    global plain
+    plain = support.daemon("plain")
+
+
+def exps(s):
+    return np.array([math.exp(v) for v in s])
+
+
+# Each: CLI options naming a built-in integrand, its smoothness, and the
+# same function in numpy (core/genz.c, core/testfn_1d.c, operation for
+# operation).
+def gaussian(a, u):
+    w = [x * x for x in a]
+
+    def f(x):
+        s = np.zeros(len(x))
+        for j in range(x.shape[1]):
+            t = x[:, j] - u[j]
+            s = s + (w[j] * t) * t
+        return exps(-s)
+    return f
+
+
+def continuous(a, u):
+    def f(x):
+        s = np.zeros(len(x))
+        for j in range(x.shape[1]):
+            s = s + a[j] * np.abs(x[:, j] - u[j])
+        return exps(-s)
+    return f
+
+
+def corner(a):
+    def f(x):
+        s = np.ones(len(x))
+        for j in range(x.shape[1]):
+            s = s + a[j] * x[:, j]
+        c0 = -(x.shape[1] + 1.0)
+        return np.array([math.pow(v, c0) for v in s])
+    return f
+
+
+def discontinuous(a, u):
+    def f(x):
+        s = np.zeros(len(x))
+        for j in range(x.shape[1]):
+            s = s + a[j] * x[:, j]
+        out = exps(s)
+        out[(x[:, 0] > u[0]) | (x[:, 1] > u[1])] = 0.0
+        return out
+    return f
+
+
+def poly(c):
+    def f(x):
+        p = np.zeros(len(x))
+        for cj in reversed(c):
+            p = p * x[:, 0] + cj
+        return p
+    return f
+
+
+A3, U3 = [1.5, 2.0, 2.5], [0.5, 0.3, 0.7]
+CASES = [
+    ("genz-gaussian", 3, "--a 1.5,2,2.5 --u 0.5,0.3,0.7", "analytic", gaussian(A3, U3)),
+    ("genz-continuous", 3, "--a 1.5,2,2.5 --u 0.5,0.3,0.7", "continuous",
+     continuous(A3, U3)),
+    ("genz-corner-peak", 4, "--a 0.5,0.25,0.125,1 --u 0.1,0.2,0.3,0.4", "analytic",
+     corner([0.5, 0.25, 0.125, 1.0])),
+    ("genz-discontinuous", 3, "--a 1.5,2,2.5 --u 0.5,0.3,0.7", "discontinuous",
+     discontinuous(A3, U3)),
+    ("poly", 1, "--a 1,-2,3,0.5", "analytic", poly([1.0, -2.0, 3.0, 0.5])),
+]
+METHODS = ["rqmc --n 4096", "mc --n 8192 --seed 3", "qmc --n 1000", "stratified", "lhs --n 500",
+           "auto --tol-rel 1e-6", "cubature --tol-rel 1e-5", "gauss-legendre --n 9",
+           "rqmc --tol-rel 1e-5 --reps 8", "rqmc --n 4096 --split-net --scramble fast-owen"]
+ONE_D = ["gauss-kronrod", "simpson --n 33", "clenshaw-curtis --tol-rel 1e-9"]
+KEYS = ["method_used", "detail", "auto_reason", "estimate", "stderr", "error_estimate",
+        "ci_low", "ci_high", "n", "evals", "dims", "nonfinite", "flags"]
+
+
+def options(words):
+    """Keyword arguments for `qmc integrate` method options."""
+    w = words.split()
+    kw = {"method": w[0]}
+    i = 1
+    while i < len(w):
+        k = w[i][2:].replace("-", "_")
+        if k == "split_net":
+            kw[k] = True
+            i += 1
+            continue
+        v = w[i + 1]
+        kw[k] = float(v) if k.startswith("tol") else (v if k == "scramble" else int(v))
+        i += 2
+    return kw
+
+
+def cli(name, dims, params, method):
+    out = support.qmc("integrate", "--integrand", name, "--dims", dims, "--json",
+                      *(params.split() + ["--method"] + method.split()))
+    return json.loads(out)
+
+
+class SameAsBuiltIn(unittest.TestCase):
+    def check(self, c, name, dims, params, smooth, f, method, **extra):
+        want = cli(name, dims, params, method)
+        r = c.integrate(f, dims, smoothness=smooth, name=name[:31], **options(method), **extra)
+        got = json.loads(r.json())
+        bad = [(k, got.get(k), want.get(k)) for k in KEYS if got.get(k) != want.get(k)]
+        self.assertEqual(bad, [], "%s %s via %s" % (name, method, c.endpoint))
+        self.assertEqual(got["integrand"], name[:31])
+        self.assertEqual(r.report.end in ("complete", "converged", "budget", "cannot_tell"),
+                         True)
+        self.assertEqual(r.report.evals, r.evals)
+        return r
+
+    def test_every_method_over_the_ring_and_inline(self):
+        with qmcd.connect(plain.unix) as u, qmcd.connect(plain.tcp) as t:
+            for name, dims, params, smooth, f in CASES:
+                methods = METHODS if dims > 1 else ONE_D + METHODS[:3]
+                for method in methods:
+                    for c in (u, t):
+                        with self.subTest(name=name, method=method, via=c.endpoint):
+                            self.check(c, name, dims, params, smooth, f, method)
+            self.assertIn("shared memory", repr(u))
+            self.assertGreaterEqual(u.stats()["requests_SESSION_OPEN"], 1)
+
+    def test_small_batches_and_a_small_ring(self):
+        name, dims, params, smooth, f = CASES[0]
+        # Batches of 256-point engine chunks; and batches bigger than a slot
+        # of a ring attached before (8 x 64 KiB): they come in pieces.
+        with qmcd.connect(plain.unix) as c:
+            for mb in (100, 1000, 5000):
+                with self.subTest(max_batch=mb):
+                    self.check(c, name, dims, params, smooth, f, "rqmc --n 4096", max_batch=mb)
+        with qmcd.connect(plain.unix) as c:
+            c.attach_shm(8, 64 << 10)
+            self.check(c, name, dims, params, smooth, f, "rqmc --n 4096", max_batch=20000)
+            self.check(c, name, dims, params, smooth, f, "mc --n 8192 --seed 3")
+
+
+class Lifecycle(unittest.TestCase):
+    def test_resume_after_the_connection_drops(self):
+        name, dims, params, smooth, f = CASES[0]
+        want = cli(name, dims, params, "rqmc --tol-rel 1e-7 --reps 8")
+        proxy = CutProxy(plain.unix[5:], support.scratch(), after=3)
+        self.addCleanup(proxy.close)
+        calls = []
+
+        def counting(x):
+            calls.append(len(x))
+            return f(x)
+        with qmcd.connect(proxy.endpoint) as c:
+            r = c.integrate(counting, dims, smoothness=smooth, max_batch=4096,
+                            **options("rqmc --tol-rel 1e-7 --reps 8"))
+        self.assertTrue(proxy.cut.is_set())
+        got = json.loads(r.json())
+        self.assertEqual([(k, got.get(k)) for k in KEYS], [(k, want.get(k)) for k in KEYS])
+        # Every batch was evaluated once: the one waiting when the
+        # connection dropped was served again and its values sent again.
+        self.assertEqual(sum(calls), r.evals)
+        self.assertGreater(r.report.batches, 3)
+
+    def test_ticket_resumes_on_another_connection(self):
+        name, dims, params, smooth, f = CASES[1]
+        want = cli(name, dims, params, "rqmc --n 4096")
+        a = qmcd.connect(plain.unix)
+        s = a.session(dims, smoothness=smooth, max_batch=4096, **options("rqmc --n 4096"))
+        b1 = s.next()
+        first = b1.points.copy()
+        s.tell(f(b1.points))
+        b2 = s.next()
+        seq = b2.seq
+        ticket = s.ticket
+        a.close()  # dropped with batch 2 waiting: the session is parked
+        with qmcd.connect(plain.unix) as c:
+            s = c.resume(ticket)
+            b = s.next()
+            self.assertEqual(b.seq, seq)  # the batch it waited for, served again
+            self.assertFalse(np.array_equal(b.points, first))
+            while b is not None:
+                s.tell(f(b.points))
+                b = s.next()
+            r = s.result()
+            self.assertEqual([r.estimate, r.error, r.evals],
+                             [want["estimate"], want["stderr"], want["evals"]])
+        with qmcd.connect(plain.unix) as c, self.assertRaises(qmcd.ServerError) as cm:
+            c.resume(ticket)  # ended: unknown from then on
+        self.assertEqual(cm.exception.code, errors.ENOENT)
+        with qmcd.connect(plain.unix) as c, self.assertRaises(qmcd.ServerError) as cm:
+            c.resume((ticket[0], bytes(32)))
+        self.assertEqual(cm.exception.code, errors.ENOENT)
+
+    def test_nonfinite_values_are_counted_and_flagged(self):
+        def f(x):
+            v = x[:, 0] * 2.0
+            v[::1000] = np.nan
+            v[1::1000] = np.inf
+            return v
+        with qmcd.connect(plain.unix) as c:
+            r = c.integrate(f, 2, method="mc", n=8192, seed=1)
+        self.assertEqual(r.nonfinite, r.report.nonfinite)
+        self.assertGreater(r.nonfinite, 0)
+        self.assertIn("nonfinite", r.flags)
+        self.assertIn("error_unreliable", r.flags)
+
+    def test_close_and_local_checks(self):
+        with qmcd.connect(plain.unix) as c:
+            s = c.session(2, method="rqmc", n=4096)
+            b = s.next()
+            with self.assertRaises(qmcd.QmcdError) as cm:
+                s.tell(np.zeros(b.count + 1))
+            self.assertEqual(cm.exception.code, errors.QMC_EINVAL)
+            rep = s.close()
+            self.assertEqual(rep.end, "running")
+            with self.assertRaises(qmcd.ServerError) as cm:
+                s.result()
+            self.assertEqual(cm.exception.code, errors.ECANCELED)
+            with self.assertRaises(ValueError):
+                c.session(2, smoothness="wobbly")
+            with self.assertRaises(ValueError):
+                c.session(0)
+            with self.assertRaises(qmcd.ServerError) as cm:
+                c.session(30000)
+            self.assertEqual((cm.exception.code, cm.exception.message),
+                             (errors.QMC_EDIMS, "a session needs dims in 1..21201, not 30000"))
+            with self.assertRaisesRegex(ValueError, "returned 3 values"):
+                c.integrate(lambda x: np.zeros(3), 2, method="qmc", n=64)
+            self.assertGreaterEqual(c.ping(), 0)
+
+
+def session_server(batches, refuse_first=False):
+    """A fake server: handshake at version 5, SESSION_OPENED for dims 2,
+    then batches(rid) frames; with refuse_first, the first SESSION_VALUES
+    is refused and the second answered with a report and a result."""
+    def script(f, s):
+        t, rid, _ = read_frame(s)
+        s.sendall(hello_ok(rid, version=5))
+        t, rid, p = read_frame(s)
+        s.sendall(wire.encode(wire.SESSION_OPENED, rid, {
+            "session_id": 9, "token": bytes(32), "dims": 2, "max_batch": 100,
+            "memory_bytes": 1, "park_ms": 1}) + b"".join(fr(rid) for fr in batches))
+        refused = not refuse_first
+        while True:
+            fr = read_frame(s)
+            if fr is None:
+                return
+            if fr[0] == wire.SESSION_VALUES:
+                if not refused:
+                    refused = True
+                    s.sendall(wire.encode(wire.ERROR, fr[1], {"code": errors.QMC_EINVAL,
+                                                              "message": "not now"}))
+                    continue
+                s.sendall(wire.encode(wire.SESSION_REPORT, rid, dict(
+                    session_id=9, batches=1, evals=1, nonfinite=0, end="complete",
+                    has_estimate=True, error_kind="none", flags=0, err=0, dims=2, res_n=1,
+                    res_evals=1, res_nonfinite=0, estimate=0.5, error=0.0, ci_low=0.5,
+                    ci_high=0.5, abs_integral=0.5)))
+                res = wire.decode_payload(wire.JOB_RESULT, wire.encode(
+                    wire.JOB_RESULT, rid, RESULT)[24:])
+                s.sendall(wire.encode(wire.SESSION_RESULT, rid, dict(res, job_id=9)))
+    return script
+
+
+RESULT = dict(job_id=9, method_used="qmc", error_kind="none", reference_kind="none",
+              cv_used=False, dims=2, flags=0, n=1, evals=1, nonfinite=0, estimate=0.5,
+              error=0.0, ci_low=0.5, ci_high=0.5, abs_integral=0.5, cv_beta=0.0,
+              cv_variance_ratio=0.0, seconds=0.0, reference=0.0,
+              sampling=dict(sampler="qmc", seq="sobol", scramble="none", seq_flags=0, seed=0,
+                            n=1, confidence=0.95, reps=1, split_net=False),
+              detail="fake", auto_reason="")
+
+
+def batch(rid, seq=0, count=1, first=0, points=1, dims=2, data=None):
+    data = data if data is not None else bytes(8 * points * dims)
+    return wire.encode(wire.SESSION_BATCH, rid, dict(
+        seq=seq, count=count, first=first, points=points, dims=dims, transport="inline",
+        slot=0, data_len=len(data), data=data))
+
+
+class Hostile(unittest.TestCase):
+    def fake(self, script):
+        f = Fake(script)
+        self.addCleanup(f.close)
+        return f
+
+    def test_refusal_then_acceptance(self):
+        f = self.fake(session_server([lambda rid: batch(rid)], refuse_first=True))
+        with qmcd.connect(f.endpoint, timeout=T, shm=False) as c:
+            s = c.session(2, method="qmc", n=1)
+            b = s.next()
+            with self.assertRaises(qmcd.ServerError) as cm:
+                s.tell([1.0])
+            self.assertEqual((cm.exception.code, cm.exception.message),
+                             (errors.QMC_EINVAL, "not now"))
+            s.tell([1.0])  # the batch still waited
+            self.assertIsNone(s.next())
+            self.assertEqual(s.result().detail, "fake")
+            self.assertEqual(b.count, 1)
+
+    def test_broken_batches(self):
+        cases = [([lambda rid: batch(rid, dims=3, data=bytes(24))], "3 dims in a session of 2"),
+                 ([lambda rid: batch(rid, seq=0), lambda rid: batch(rid, seq=5)],
+                  "a batch while none was expected"),
+                 ([lambda rid: batch(rid, count=200, points=1)], "larger than max_batch"),
+                 ([lambda rid: batch(rid, count=2, first=0, points=1),
+                   lambda rid: batch(rid, count=2, first=0, points=1)], "out of order"),
+                 ([lambda rid: wire.header(wire.SESSION_BATCH, rid, 44 + 16) +
+                   bytes(60)], "malformed SESSION_BATCH")]
+        for frames, why in cases:
+            with self.subTest(why):
+                f = self.fake(session_server(frames))
+                with self.assertRaisesRegex(qmcd.ProtocolError, why):
+                    with qmcd.connect(f.endpoint, timeout=T, shm=False) as c:
+                        s = c.session(2, method="qmc", n=1)
+                        b = s.next()
+                        s.tell(np.zeros(b.count))
+                        s.next()
+
+    def test_version_4_server(self):
+        def script(f, s):
+            t, rid, _ = read_frame(s)
+            s.sendall(hello_ok(rid, version=4))
+            f.seen.append(read_frame(s))
+        f = self.fake(script)
+        with qmcd.connect(f.endpoint, timeout=T) as c, self.assertRaises(qmcd.QmcdError) as cm:
+            c.integrate(lambda x: x[:, 0], 2)
+        self.assertEqual(cm.exception.code, errors.QMC_ENOTSUP)
+        self.assertIn("protocol version 4", str(cm.exception))
+        f.close()
+        self.assertEqual(f.seen, [None])  # nothing was sent after the handshake
+
+
+if __name__ == "__main__":
+    unittest.main()
