@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "flag_report.h"
 #include "gnuplot.h"
 #include "outdir.h"
 #include "stability.h"
@@ -156,6 +157,24 @@ int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
           "flag says so (or the method says it has no bar), REFUSED when the method\n"
           "declined with an error, and SILENT when it is wrong with no flag.  The truth\n"
           "is never computed by a method in the matrix.  See docs/STABILITY.md.\n\n", f);
+    fputs("## What each flag is worth\n\n"
+          "Every run of every cell, judged as above: a flag on a correct answer is a\n"
+          "false alarm, on a wrong one it did its job.  Precision is the share of a\n"
+          "flag's runs whose answer was wrong.  Runs of plain QMC (no bar) and refusals\n"
+          "are left out.  A \"cannot tell\" flag (few_nonzero, tail_untested,\n"
+          "zero_spread, unresolved) may fire on an answer that happened to be right;\n"
+          "its precision says how often that happens.\n\n"
+          "### At normal budgets\n\n", f);
+    const qmc_stab_flag_tally *fn = &mx->flags_normal;
+    uint32_t eu = 0;
+    for (int b = 0; b < 32; b++)
+        if ((1u << b) == QMC_FLAG_ERROR_UNRELIABLE)
+            eu = fn->on_correct[b];
+    cli_flag_report(f, fn);
+    fprintf(f, "error_unreliable on correct answers: %u of %u (%.1f%%).\n\n"
+            "### On the tiny-budget cases (16 evaluations a run)\n\n", eu, fn->correct,
+            fn->correct ? 100.0 * eu / fn->correct : 0.0);
+    cli_flag_report(f, &mx->flags_tiny);
     fprintf(f, "## Silent cells (%u)\n\n", mx->count[QMC_STAB_SILENT]);
     if (mx->count[QMC_STAB_SILENT] == 0)
         fputs("None.\n", f);
@@ -205,9 +224,28 @@ static void json_num(FILE *f, double v)
         fputs("null", f);
 }
 
+/* {"correct":C,"wrong":W,"flags":{"key":[on correct, on wrong],...}} */
+static void json_flags(FILE *f, const qmc_stab_flag_tally *t)
+{
+    fprintf(f, "{\"correct\":%u,\"wrong\":%u,\"flags\":{", t->correct, t->wrong);
+    int first = 1;
+    for (int b = 0; b < 32; b++)
+        if (t->on_correct[b] + t->on_wrong[b] && qmc_flag_key(1u << b)[0]) {
+            fprintf(f, "%s\"%s\":[%u,%u]", first ? "" : ",", qmc_flag_key(1u << b),
+                    t->on_correct[b], t->on_wrong[b]);
+            first = 0;
+        }
+    fputs("}}", f);
+}
+
 void cli_stab_print_json(FILE *f, const cli_stab_matrix *mx)
 {
-    fprintf(f, "{\"quick\":%s,\"seconds\":%.3f,\"runs\":%u,\"ok_flagged_runs\":%u,"
+    fputs("{\"flag_precision\":{\"normal_budget\":", f);
+    json_flags(f, &mx->flags_normal);
+    fputs(",\"tiny_budget\":", f);
+    json_flags(f, &mx->flags_tiny);
+    fputs("},", f);
+    fprintf(f, "\"quick\":%s,\"seconds\":%.3f,\"runs\":%u,\"ok_flagged_runs\":%u,"
             "\"ok_flagged_runs_normal_budget\":%u,\"counts\":{\"OK\":%u,\"FLAGGED\":%u,\"REFUSED\":%u,\"SILENT\":%u},\"cells\":[",
             mx->quick ? "true" : "false", mx->seconds, mx->runs, mx->ok_flagged_runs,
             mx->ok_flagged_runs_normal, mx->count[0], mx->count[1], mx->count[2], mx->count[3]);
@@ -244,6 +282,12 @@ void cli_stab_print_summary(FILE *f, const cli_stab_matrix *mx)
             mx->count[2], mx->count[3]);
     fprintf(f, "  correct runs flagged anyway: %u of %u at normal budgets, %u of %u in all\n",
             mx->ok_flagged_runs_normal, mx->runs_normal, mx->ok_flagged_runs, mx->runs);
+    const qmc_stab_flag_tally *fn = &mx->flags_normal;
+    for (int b = 0; b < 32; b++)
+        if ((1u << b) == QMC_FLAG_ERROR_UNRELIABLE)
+            fprintf(f, "  error_unreliable: on %u of %u correct and %u of %u wrong runs with a "
+                    "bar at normal budgets\n", fn->on_correct[b], fn->correct, fn->on_wrong[b],
+                    fn->wrong);
     for (size_t i = 0; i < mx->n_cases * mx->n_methods; i++) {
         const cli_stab_cell *cell = &mx->cells[i];
         if (cell->cls != QMC_STAB_SILENT)
