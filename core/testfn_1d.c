@@ -154,6 +154,7 @@ void qmc__fn1d_log_eval(const void *ctx, const double *x, size_t n,
 void qmc__fn1d_step_setup(qmc_testfn *fn)
 {
     qmc__testfn_set_exact(fn, fn->u[0], 1, fn->u[0]);
+    qmc__testfn_break_at_u1(fn);
 }
 
 void qmc__fn1d_step_eval(const void *ctx, const double *x, size_t n,
