@@ -26,7 +26,8 @@
  * share; below QMC_SAMPLING_MIN_NONZERO, with s_t above the interval's
  * half-width, the bar cannot see a bias of that size:
  * QMC_FLAG_MIS_UNDERSAMPLED (+ error_unreliable), for MIS's techniques and
- * a single strategy's one alike.
+ * a single strategy's one alike, on sampling methods' results (a rule's
+ * nodes are not samples of any technique).
  *
  * s_t and E_t[Y_t^2] = int (w_t f)^2 / p_t are integrals over directions;
  * they are taken by a deterministic quadrature that no strategy's blind
@@ -138,8 +139,11 @@ uint32_t qmc__scene_audit(const void *ctx, const qmc_result *res)
     uint32_t flags = 0;
     if (a.unreachable)
         flags |= QMC_FLAG_ZERO_PDF | QMC_FLAG_ERROR_UNRELIABLE;
+    /* A deterministic rule's nodes do not follow any technique's density
+     * (cubature crowds them where the mass is): the count below is about
+     * samples, random or low-discrepancy. */
     const double half = res->ci_high - res->estimate;
-    for (int t = 0; t < TECHS; t++) {
+    for (int t = 0; t < TECHS && res->error_kind != QMC_ERROR_ESTIMATE; t++) {
         if (!(a.count[t] > 0.0) || !(a.share[t] > 0.0) || !(a.second[t] > 0.0))
             continue;
         /* e_t = s^2 / E[Y^2], as a ratio so that neither square overflows */

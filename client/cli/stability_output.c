@@ -131,6 +131,31 @@ static void cell_words(FILE *f, const cli_stab_cell *cell, const cli_stab_ref *r
             cell->c->why);
 }
 
+static uint32_t bit_count(const uint32_t *per_bit, uint32_t flag)
+{
+    for (int b = 0; b < 32; b++)
+        if ((1u << b) == flag)
+            return per_bit[b];
+    return 0;
+}
+
+/* Where the false alarms at normal budgets come from: per method, its
+ * correct runs and how many of them carry error_unreliable or any flag. */
+static void false_alarms_by_method(FILE *f, const cli_stab_matrix *mx)
+{
+    fputs("Correct answers flagged anyway, by method (normal budgets):\n\n| method | correct "
+          "runs | with error_unreliable | with any flag |\n|---|---|---|---|\n", f);
+    for (size_t c = 0; c < mx->n_methods; c++) {
+        qmc_stab_flag_tally t = {0};
+        for (size_t r = 0; r < mx->n_cases; r++)
+            if (!mx->cases[r]->tiny)
+                qmc_stab_flag_tally_merge(&t, &mx->cells[r * mx->n_methods + c].flags);
+        fprintf(f, "| %s | %u | %u | %u |\n", mx->methods[c].name, t.correct,
+                bit_count(t.on_correct, QMC_FLAG_ERROR_UNRELIABLE), t.correct_flagged);
+    }
+    fputc('\n', f);
+}
+
 int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
 {
     size_t total = mx->n_cases * mx->n_methods;
@@ -166,14 +191,12 @@ int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
           "its precision says how often that happens.\n\n"
           "### At normal budgets\n\n", f);
     const qmc_stab_flag_tally *fn = &mx->flags_normal;
-    uint32_t eu = 0;
-    for (int b = 0; b < 32; b++)
-        if ((1u << b) == QMC_FLAG_ERROR_UNRELIABLE)
-            eu = fn->on_correct[b];
+    uint32_t eu = bit_count(fn->on_correct, QMC_FLAG_ERROR_UNRELIABLE);
     cli_flag_report(f, fn);
-    fprintf(f, "error_unreliable on correct answers: %u of %u (%.1f%%).\n\n"
-            "### On the tiny-budget cases (16 evaluations a run)\n\n", eu, fn->correct,
+    fprintf(f, "error_unreliable on correct answers: %u of %u (%.1f%%).\n\n", eu, fn->correct,
             fn->correct ? 100.0 * eu / fn->correct : 0.0);
+    false_alarms_by_method(f, mx);
+    fputs("### On the tiny-budget cases (16 evaluations a run)\n\n", f);
     cli_flag_report(f, &mx->flags_tiny);
     fprintf(f, "## Silent cells (%u)\n\n", mx->count[QMC_STAB_SILENT]);
     if (mx->count[QMC_STAB_SILENT] == 0)
