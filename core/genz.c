@@ -421,6 +421,7 @@ void qmc__genz_cont_setup(qmc_testfn *fn)
         xp_mul(&p, (-expm1(-a * u) - expm1(-a * (1.0 - u))) / a);
     }
     set_positive(fn, xp_value(&p));
+    qmc__testfn_break_at_u1(fn); /* in 1D the kink is at u1 */
 }
 
 void qmc__genz_cont_eval(const void *ctx, const double *x, size_t n,
@@ -465,6 +466,7 @@ void qmc__genz_disc_setup(qmc_testfn *fn)
         qmc__testfn_set_exact(fn, 0.0, 1, 0.0);
     else
         set_positive(fn, v);
+    qmc__testfn_break_at_u1(fn); /* in 1D the jump is at u1 */
 }
 
 void qmc__genz_disc_eval(const void *ctx, const double *x, size_t n,

@@ -33,6 +33,7 @@
 
 #include "err_heap.h"
 #include "interrupt.h"
+#include "quad_impl.h"
 #include "qmc/quad.h"
 
 #define GK_MAX_HALF 10                 /* Kronrod nodes on one side, K21 */
@@ -115,7 +116,29 @@ typedef struct gk_state {
     uint32_t count;
     uint64_t evals;
     uint64_t nonfinite;
+    int hunt_ends;    /* jumps declared, not where: bound the end gaps */
+    double max_abs;   /* the largest finite |f| seen so far */
 } gk_state;
+
+/* The share of an interval's width beyond its outermost Kronrod node, at
+ * each end: (1 - xgk[0]) / 2. */
+static double end_gap(const gk_rule *g)
+{
+    return 0.5 * (1.0 - g->xgk[0]);
+}
+
+int qmc__gk_breaks_usable(const qmc_integrand *f)
+{
+    if (!f || f->dims != 1 || f->n_breaks == 0 || !f->breaks ||
+        f->n_breaks > QMC_INTEGRAND_MAX_BREAKS)
+        return 0;
+    for (uint32_t i = 0; i < f->n_breaks; i++) {
+        double b = f->breaks[i];
+        if (!(b > 0.0 && b < 1.0) || (i > 0 && !(b > f->breaks[i - 1])))
+            return 0;
+    }
+    return 1;
+}
 
 void qmc_quad_gk_opts_init(qmc_quad_gk_opts *opts)
 {
@@ -225,8 +248,11 @@ static int eval_intervals(gk_state *s, gk_interval *ivs, uint32_t count,
     s->f->eval(s->f->ctx, x, m, 1, fx);
     s->evals += m;
     uint64_t bad = 0;
-    for (uint32_t i = 0; i < m; i++)
+    for (uint32_t i = 0; i < m; i++) {
         bad += !isfinite(fx[i]);
+        if (isfinite(fx[i]))
+            s->max_abs = fmax(s->max_abs, fabs(fx[i]));
+    }
     s->nonfinite += bad;
     uint32_t per = m / count;
     for (uint32_t i = 0; i < count; i++) {
@@ -234,6 +260,17 @@ static int eval_intervals(gk_state *s, gk_interval *ivs, uint32_t count,
                                &ivs[i]);
         if (resabs)
             resabs[i] = ra;
+        /* An end of [0,1] is the one place no parent ever saw: a jump in
+         * the gap beyond an end interval's last node (the step at 1 -
+         * 1e-9) changes the integral by up to gap x |f| without any rule
+         * noticing.  Where jumps are declared but not where they are, that
+         * is a floor on the interval's error, so the end intervals are
+         * bisected until the gap can hold no more than the tolerance (the
+         * values seen bound what a jump to 0, or between them, hides). */
+        int ends = (ivs[i].a == 0.0) + (ivs[i].b == 1.0);
+        if (s->hunt_ends && ends)
+            ivs[i].e = fmax(ivs[i].e,
+                            ends * end_gap(s->rule) * (ivs[i].b - ivs[i].a) * s->max_abs);
     }
     return bad != 0;
 }
@@ -333,28 +370,53 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
     s.count = 0;
     s.evals = 0;
     s.nonfinite = 0;
+    /* A declared set of breaks (qmc_integrand.breaks) makes the opening
+     * intervals: each piece is smooth, so no rule straddles a jump or a
+     * kink, and the pieces' bars are QUADPACK's own.  A declared jump
+     * whose place is not given makes the ends suspect instead. */
+    const int split = qmc__gk_breaks_usable(f);
+    if (f->n_breaks && !split)
+        return QMC_EINVAL;
+    const uint32_t pieces = split ? f->n_breaks + 1 : 1;
+    s.hunt_ends = !split && f->smoothness == QMC_SMOOTH_DISCONTINUOUS;
+    s.max_abs = 0.0;
     uint32_t k = 2 * s.rule->half + 1;
-    if (opts->max_evals < k)
-        return QMC_EBUDGET;
+    if (opts->max_evals / k < pieces || pieces > opts->max_subdiv)
+        return pieces > opts->max_subdiv ? QMC_EINVAL : QMC_EBUDGET;
     qmc__poll poll;
     qmc__poll_init(&poll, &opts->interrupt);
     if (qmc__poll_now(&poll))
         return cancelled(&s, res);
 
-    /* The whole interval first (DQAGE's opening tests). */
+    /* The pieces first (DQAGE's opening tests, over all of them). */
     uint32_t flags = 0;
-    double resabs;
-    s.iv[0].a = 0.0;
-    s.iv[0].b = 1.0;
-    s.iv[0].floor = 0.0;
-    s.iv[0].suspect = SUSPECT_NONE;
-    s.iv[0].depth = 0;
-    int bad = eval_intervals(&s, s.iv, 1, &resabs);
-    if (qmc__poll_work(&poll, k))
-        return cancelled(&s, res);
-    s.heap[0] = 0;
-    s.count = 1;
-    double area = s.iv[0].r, errsum = s.iv[0].e;
+    double resabs = 0.0;
+    int bad = 0, saturated = 0;
+    for (uint32_t i = 0; i < pieces; i++) {
+        gk_interval *iv = &s.iv[i];
+        iv->a = i == 0 ? 0.0 : f->breaks[i - 1];
+        iv->b = i + 1 == pieces ? 1.0 : f->breaks[i];
+        iv->floor = 0.0;
+        iv->suspect = SUSPECT_NONE;
+        iv->depth = 0;
+    }
+    for (uint32_t i = 0; i < pieces; i += 2) {
+        uint32_t batch = pieces - i < 2 ? pieces - i : 2;
+        double ra[2];
+        bad |= eval_intervals(&s, &s.iv[i], batch, ra);
+        for (uint32_t j = 0; j < batch; j++)
+            resabs += ra[j];
+        if (qmc__poll_work(&poll, batch * (uint64_t)k))
+            return cancelled(&s, res);
+    }
+    double area = 0.0, errsum = 0.0;
+    for (uint32_t i = 0; i < pieces; i++) {
+        s.heap[i] = i;
+        s.count = i + 1;
+        heap_up(&s, i);
+        saturated |= s.iv[i].e == s.iv[i].resasc && s.iv[i].e != 0.0;
+    }
+    totals(&s, &area, &errsum);
     double errbnd = tolerance(opts, area);
     int done = 0;
     if (bad) {
@@ -363,7 +425,7 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
     } else if (errsum <= 50.0 * DBL_EPSILON * resabs && errsum > errbnd) {
         flags |= QMC_FLAG_ROUNDOFF;
         done = 1;
-    } else if ((errsum <= errbnd && errsum != s.iv[0].resasc) || errsum == 0.0) {
+    } else if ((errsum <= errbnd && !saturated) || errsum == 0.0) {
         done = 1;
     }
 
@@ -377,7 +439,9 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
      * declares a kink or worse takes GK_KINK_MARGIN times the
      * difference; the interval holding the kink is bisected two or three
      * times more, about a hundred evaluations. */
-    const double margin = f->smoothness == QMC_SMOOTH_ANALYTIC ? 1.0 : GK_KINK_MARGIN;
+    const int smooth_pieces = f->smoothness == QMC_SMOOTH_ANALYTIC ||
+                              (split && f->smoothness <= QMC_SMOOTH_DISCONTINUOUS);
+    const double margin = smooth_pieces ? 1.0 : GK_KINK_MARGIN;
     uint32_t iroff1 = 0, iroff2 = 0;
     while (!done) {
         uint32_t top = s.heap[0];

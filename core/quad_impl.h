@@ -19,4 +19,10 @@ int qmc__gauss_legendre(uint32_t n, double *x, double *w, qmc__poll *poll);
  * rule whose nodes cost more than O(n). */
 int qmc__rule1d_nodes(qmc_rule1d rule, uint32_t n, double *x, double *w, qmc__poll *poll);
 
+/* Whether f declares breaks that Gauss-Kronrod can start from
+ * (qmc_integrand.breaks: 1D, 1..QMC_INTEGRAND_MAX_BREAKS points strictly
+ * inside (0,1), strictly ascending).  qmc_quad_gk refuses other breaks
+ * with QMC_EINVAL; auto asks here before it picks the rule. */
+int qmc__gk_breaks_usable(const qmc_integrand *f);
+
 #endif /* QMC_QUAD_IMPL_H */

@@ -364,8 +364,7 @@ double qmc__scene_pdf_uniform(const qmc__scene_geom *g, qmc_vec3 w)
 }
 
 /* A direction from the BRDF technique; *pdf its combined density. */
-static qmc_vec3 sample_brdf(const qmc__scene_geom *g, const double *u,
-                            double *pdf)
+qmc_vec3 qmc__scene_sample_brdf(const qmc__scene_geom *g, const double *u, double *pdf)
 {
     qmc_vec2 uv = {u[0], u[1]};
     qmc_vec3 w;
@@ -474,7 +473,7 @@ static double estimate(const qmc_scene_job *job, const qmc__scene_geom *g,
                           g->n1, g->n2, g->n);
         return shade_traced(g, w, &pl) * (2.0 * PI);
     case QMC_SCENE_BRDF:
-        w = sample_brdf(g, x, &pdf);
+        w = qmc__scene_sample_brdf(g, x, &pdf);
         if (!(pdf > 0.0))
             return 0.0;
         return shade_traced(g, w, &pl) / pdf;
@@ -489,7 +488,7 @@ static double estimate(const qmc_scene_job *job, const qmc__scene_geom *g,
     /* Veach (1997), eq. 9.12: F = sum_i (1/c_i) sum_j w_i f / p_i. */
     double cb = job->c_brdf, cl = job->c_light, sum_b = 0.0, sum_l = 0.0;
     for (uint32_t j = 0; j < job->c_brdf; j++) {
-        w = sample_brdf(g, x + 2 * j, &pdf);
+        w = qmc__scene_sample_brdf(g, x + 2 * j, &pdf);
         if (!(pdf > 0.0))
             continue;
         v = shade_traced(g, w, &pl);

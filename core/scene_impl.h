@@ -140,6 +140,9 @@ double qmc__scene_pdf_brdf(const qmc__scene_geom *g, qmc_vec3 w);
 double qmc__scene_pdf_uniform(const qmc__scene_geom *g, qmc_vec3 w);
 qmc_vec3 qmc__scene_sample_light(const qmc__scene_geom *g, const double *u, double *dist,
                                  double *pdf);
+/* A direction from the BRDF technique and its density (0: the sample
+ * failed), from u[0..2). */
+qmc_vec3 qmc__scene_sample_brdf(const qmc__scene_geom *g, const double *u, double *pdf);
 
 /* The scene job's audit (qmc_integrand.audit, scene_audit.c). */
 uint32_t qmc__scene_audit(const void *ctx, const qmc_result *res);

@@ -58,6 +58,39 @@ uint32_t qmc_stab_silent_threshold(uint32_t runs, double p_chance, double alpha)
     return best > runs ? runs : best;
 }
 
+uint32_t qmc_stab_silent_needed(uint32_t runs, int randomized)
+{
+    if (!randomized)
+        return 1;
+    return qmc_stab_silent_threshold(runs, QMC_STAB_CHANCE_MISS, QMC_STAB_SILENT_ALPHA);
+}
+
+void qmc_stab_flag_tally_add(qmc_stab_flag_tally *t, int refused, const qmc_stab_verdict *v,
+                             const qmc_result *r)
+{
+    if (refused || !r || r->error_kind == QMC_ERROR_NONE)
+        return;
+    const int ok = v->covered;
+    uint32_t *on = ok ? t->on_correct : t->on_wrong;
+    *(ok ? &t->correct : &t->wrong) += 1;
+    if (r->flags)
+        *(ok ? &t->correct_flagged : &t->wrong_flagged) += 1;
+    for (int b = 0; b < 32; b++)
+        on[b] += (r->flags >> b) & 1u;
+}
+
+void qmc_stab_flag_tally_merge(qmc_stab_flag_tally *into, const qmc_stab_flag_tally *from)
+{
+    into->correct += from->correct;
+    into->wrong += from->wrong;
+    into->correct_flagged += from->correct_flagged;
+    into->wrong_flagged += from->wrong_flagged;
+    for (int b = 0; b < 32; b++) {
+        into->on_correct[b] += from->on_correct[b];
+        into->on_wrong[b] += from->on_wrong[b];
+    }
+}
+
 void qmc_stab_tally_add(qmc_stab_tally *t, const qmc_stab_verdict *v, const qmc_result *r)
 {
     t->runs++;

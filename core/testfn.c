@@ -147,6 +147,14 @@ int qmc_testfn_lookup(const char *name, size_t *index)
     return QMC_EINVAL;
 }
 
+void qmc__testfn_break_at_u1(qmc_testfn *fn)
+{
+    if (fn->dims == 1 && fn->n_u >= 1 && fn->u[0] > 0.0 && fn->u[0] < 1.0) {
+        fn->view.breaks = fn->u;
+        fn->view.n_breaks = 1;
+    }
+}
+
 void qmc__testfn_set_exact(qmc_testfn *fn, double exact, int has_abs,
                            double abs_integral)
 {

@@ -15,6 +15,7 @@
  */
 #include <math.h>
 
+#include "exact_sum.h"
 #include "testfn_impl.h"
 
 #define PI 3.14159265358979323846
@@ -34,13 +35,21 @@ static int bad_dims(uint32_t dims, size_t n, double *out)
 
 void qmc__fn1d_poly_setup(qmc_testfn *fn)
 {
-    /* Summed from the highest degree down: the small terms first. */
-    double v = 0.0;
+    /* sum c_k / (k + 1), exactly and rounded once (exact_sum.h): a sum in
+     * doubles kept none of the digits of an integral whose coefficients
+     * cancel ((1 - 2x)^25 expanded: -2.4e-7 for 0).  The registry caps the
+     * coefficients at QMC_TESTFN_MAX_COEFS (32), the exact sum's largest
+     * denominator. */
+    _Static_assert(QMC_TESTFN_MAX_COEFS <= QMC__EXACT_MAX_DEN, "poly degree past the exact sum");
+    uint32_t den[QMC_TESTFN_MAX_COEFS];
     int nonneg = 1;
-    for (size_t k = fn->n_a; k-- > 0;) {
-        v += fn->a[k] / (double)(k + 1);
+    for (size_t k = 0; k < fn->n_a; k++) {
+        den[k] = (uint32_t)(k + 1);
         nonneg &= fn->a[k] >= 0.0;
     }
+    double v = NAN;
+    if (fn->n_a > QMC_TESTFN_MAX_COEFS || qmc__exact_quotient_sum(fn->a, den, fn->n_a, &v) != 0)
+        v = NAN; /* not reached: the registry checked count and finiteness */
     /* With every coefficient >= 0 the polynomial is >= 0 on [0,1]. */
     qmc__testfn_set_exact(fn, v, nonneg, v);
 }
@@ -145,6 +154,7 @@ void qmc__fn1d_log_eval(const void *ctx, const double *x, size_t n,
 void qmc__fn1d_step_setup(qmc_testfn *fn)
 {
     qmc__testfn_set_exact(fn, fn->u[0], 1, fn->u[0]);
+    qmc__testfn_break_at_u1(fn);
 }
 
 void qmc__fn1d_step_eval(const void *ctx, const double *x, size_t n,

@@ -58,6 +58,10 @@ qmc__testfn_eval_fn qmc__fn1d_poly_eval, qmc__fn1d_exp_eval,
     qmc__fn1d_cos_eval, qmc__fn1d_invsqrt_eval, qmc__fn1d_log_eval,
     qmc__fn1d_step_eval;
 
+/* For a 1D function whose only kink or jump is at u1: declares it as the
+ * view's break (qmc_integrand.breaks), unless u1 is an end of [0,1]. */
+void qmc__testfn_break_at_u1(qmc_testfn *fn);
+
 /* Sets the view's exact and abs values; has_* only when the value is
  * finite. */
 void qmc__testfn_set_exact(qmc_testfn *fn, double exact, int has_abs,

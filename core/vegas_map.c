@@ -204,6 +204,9 @@ static qmc__vmap *vmap_new(const qmc_integrand *f, uint32_t bins)
     m->mapped = *f;
     m->mapped.eval = mapped_eval;
     m->mapped.ctx = m;
+    /* the map moves f's kinks and jumps: its own breaks are not f's */
+    m->mapped.breaks = NULL;
+    m->mapped.n_breaks = 0;
     /* f J has jumps at the bin edges, whatever f is. */
     if (m->mapped.smoothness < QMC_SMOOTH_DISCONTINUOUS)
         m->mapped.smoothness = QMC_SMOOTH_DISCONTINUOUS;

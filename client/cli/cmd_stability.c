@@ -291,9 +291,9 @@ static void run_cell(stab_ctx *x, size_t index)
             reps[k].res.flags = 0;
         verdicts[k] = qmc_stab_classify(refused[k], &reps[k].res, truth);
         qmc_stab_tally_add(&cell->tally, &verdicts[k], refused[k] ? NULL : &reps[k].res);
+        qmc_stab_flag_tally_add(&cell->flags, refused[k], &verdicts[k], &reps[k].res);
     }
-    uint32_t threshold = qmc_stab_silent_threshold(seeds, 0.01, 1e-3);
-    cell->cls = qmc_stab_tally_class(&cell->tally, threshold);
+    cell->cls = qmc_stab_tally_class(&cell->tally, qmc_stab_silent_needed(seeds, m->randomized));
     /* show the first run of the cell's class (else the first run) */
     uint32_t shown = 0;
     for (uint32_t k = 0; k < seeds; k++)
@@ -395,6 +395,9 @@ static int run_matrix(const stab_opts *o, cli_stab_matrix *mx)
         if (!mx->cells[i].c->tiny) {
             mx->ok_flagged_runs_normal += mx->cells[i].tally.ok_flagged;
             mx->runs_normal += mx->cells[i].tally.runs;
+            qmc_stab_flag_tally_merge(&mx->flags_normal, &mx->cells[i].flags);
+        } else {
+            qmc_stab_flag_tally_merge(&mx->flags_tiny, &mx->cells[i].flags);
         }
     }
     rc = 0;

@@ -15,8 +15,10 @@
 #include "method_spec.h"
 #include "qmc/scene.h"
 #include "qmc/stability.h"
+#include "qmc/testfn.h"
 
-enum { CLI_STAB_MAX_PARAMS = 5 };
+/* a and u values a case may give: up to 5 dims, or a poly's coefficients */
+enum { CLI_STAB_MAX_PARAMS = QMC_TESTFN_MAX_COEFS };
 
 /* One failure case: an integrand (or a scene and strategy) that breaks
  * some method's error bar, with a reference computed without any of the
@@ -57,6 +59,7 @@ typedef struct cli_stab_cell {
     const cli_stab_case *c;
     const cli_method *m;
     qmc_stab_tally tally;
+    qmc_stab_flag_tally flags;    /* each flag on its correct and wrong runs */
     qmc_stab_class cls;
     /* the run shown (the first whose class is the cell's) */
     qmc_result res;
@@ -89,6 +92,9 @@ typedef struct cli_stab_matrix {
      * correct answer is a false alarm, while at 16 evaluations the issue
      * asks for one ("n below the heavy-tail test's minimum") */
     uint32_t ok_flagged_runs_normal, runs_normal;
+    /* what each flag is worth: its runs on correct and on wrong answers,
+     * at normal budgets and on the tiny-budget cases */
+    qmc_stab_flag_tally flags_normal, flags_tiny;
     double seconds;
 } cli_stab_matrix;
 

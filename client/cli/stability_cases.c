@@ -36,6 +36,23 @@ static const char overflow_light[] =
     "point 0 0 0\nnormal 0 0 1\nbrdf lambert albedo 1\n"
     "light sphere center 0 0 3 radius 1 radiance 1e308\n";
 
+/* issue 23: a Phong lobe (kd 0.5, ks 0.5, exponent 50) under a 200 x 200
+ * light 0.01 above the point.  The power heuristic at beta 0.05 gives the
+ * light technique about a quarter of the weight where the lobe is, right
+ * above the point, where uniform area samples almost never land: 0.71
+ * against 1 (closed form in tests/unit/test_stability_scenes.c). */
+static const char mis_rect[] =
+    "point 0 0 0\nnormal 0 0 1\nbrdf phong kd 0.5 ks 0.5 exponent 50\n"
+    "light rect corner -100 -100 0.01 edge1 0 200 0 edge2 200 0 0 radiance 1\n";
+
+/* issue 23: a narrow lobe (exponent 3000, 3e-4 of the hemisphere) about the
+ * normal under a sphere light on the axis: uniform directions miss the
+ * lobe and see only the diffuse 0.5% (closed form 2.6 (0.02 sin^2 + 0.98
+ * (1 - cos^3002)) of the light's half-angle, in the scene tests). */
+static const char narrow_lobe[] =
+    "point 0 0 0\nnormal 0 0 1\nbrdf phong kd 0.02 ks 0.98 exponent 3000\n"
+    "light sphere center 0 0 2 radius 1 radiance 2.6\n";
+
 #define TINY 16
 
 const cli_stab_case cli_stab_cases[] = {
@@ -46,6 +63,12 @@ const cli_stab_case cli_stab_cases[] = {
     {.name = "jump-disc-2d", .category = "jump",
      .why = "genz-discontinuous, jump through the middle",
      .integrand = "genz-discontinuous", .dims = 2, .a = {1, 1}, .u = {0.5, 0.5}, .n_params = 2},
+    {.name = "jump-step-end-1d", .category = "jump",
+     .why = "issue 23: a step 1e-9 from the end, in the gap beyond every Kronrod node",
+     .integrand = "step", .dims = 1, .u = {0.999999999}, .n_params = 1},
+    {.name = "jump-disc-1d", .category = "jump",
+     .why = "issue 23: auto chose split-net RQMC (bar 1e-8, error 5.2e-7); the jump is declared",
+     .integrand = "genz-discontinuous", .dims = 1, .a = {3}, .u = {0.41}, .n_params = 1},
     {.name = "kink-cont-3d", .category = "kink",
      .why = "genz-continuous: |x - u| kinks off the grid points",
      .integrand = "genz-continuous", .dims = 3, .a = {5, 5, 5}, .u = {0.31, 0.62, 0.47},
@@ -133,6 +156,14 @@ const cli_stab_case cli_stab_cases[] = {
     {.name = "tiny-light/mis-power-0.05", .category = "tiny light",
      .why = "issue 13: the power heuristic with beta 0.05",
      .scene = tiny_light, .strategy = QMC_SCENE_MIS_POWER, .beta = 0.05},
+    {.name = "mis-rect/mis-power-0.05", .category = "MIS",
+     .why = "issue 23: beta 0.05 starves the light technique under a 200 x 200 light (0.71 "
+            "against 1)",
+     .scene = mis_rect, .strategy = QMC_SCENE_MIS_POWER, .beta = 0.05},
+    {.name = "lobe3000/uniform-n16", .category = "narrow peak",
+     .why = "issue 23: 16 points a replicate, uniform directions: every replicate misses the "
+            "lobe",
+     .scene = narrow_lobe, .strategy = QMC_SCENE_UNIFORM, .evals = 256},
     {.name = "phong5000/light", .category = "narrow peak",
      .why = "light sampling of a near-mirror lobe",
      .scene = sharp_phong, .strategy = QMC_SCENE_LIGHT},

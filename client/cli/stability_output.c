@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "flag_report.h"
 #include "gnuplot.h"
 #include "outdir.h"
 #include "stability.h"
@@ -130,6 +131,31 @@ static void cell_words(FILE *f, const cli_stab_cell *cell, const cli_stab_ref *r
             cell->c->why);
 }
 
+static uint32_t bit_count(const uint32_t *per_bit, uint32_t flag)
+{
+    for (int b = 0; b < 32; b++)
+        if ((1u << b) == flag)
+            return per_bit[b];
+    return 0;
+}
+
+/* Where the false alarms at normal budgets come from: per method, its
+ * correct runs and how many of them carry error_unreliable or any flag. */
+static void false_alarms_by_method(FILE *f, const cli_stab_matrix *mx)
+{
+    fputs("Correct answers flagged anyway, by method (normal budgets):\n\n| method | correct "
+          "runs | with error_unreliable | with any flag |\n|---|---|---|---|\n", f);
+    for (size_t c = 0; c < mx->n_methods; c++) {
+        qmc_stab_flag_tally t = {0};
+        for (size_t r = 0; r < mx->n_cases; r++)
+            if (!mx->cases[r]->tiny)
+                qmc_stab_flag_tally_merge(&t, &mx->cells[r * mx->n_methods + c].flags);
+        fprintf(f, "| %s | %u | %u | %u |\n", mx->methods[c].name, t.correct,
+                bit_count(t.on_correct, QMC_FLAG_ERROR_UNRELIABLE), t.correct_flagged);
+    }
+    fputc('\n', f);
+}
+
 int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
 {
     size_t total = mx->n_cases * mx->n_methods;
@@ -156,6 +182,22 @@ int cli_stab_write_report(FILE *f, const cli_stab_matrix *mx)
           "flag says so (or the method says it has no bar), REFUSED when the method\n"
           "declined with an error, and SILENT when it is wrong with no flag.  The truth\n"
           "is never computed by a method in the matrix.  See docs/STABILITY.md.\n\n", f);
+    fputs("## What each flag is worth\n\n"
+          "Every run of every cell, judged as above: a flag on a correct answer is a\n"
+          "false alarm, on a wrong one it did its job.  Precision is the share of a\n"
+          "flag's runs whose answer was wrong.  Runs of plain QMC (no bar) and refusals\n"
+          "are left out.  A \"cannot tell\" flag (few_nonzero, tail_untested,\n"
+          "zero_spread, unresolved) may fire on an answer that happened to be right;\n"
+          "its precision says how often that happens.\n\n"
+          "### At normal budgets\n\n", f);
+    const qmc_stab_flag_tally *fn = &mx->flags_normal;
+    uint32_t eu = bit_count(fn->on_correct, QMC_FLAG_ERROR_UNRELIABLE);
+    cli_flag_report(f, fn);
+    fprintf(f, "error_unreliable on correct answers: %u of %u (%.1f%%).\n\n", eu, fn->correct,
+            fn->correct ? 100.0 * eu / fn->correct : 0.0);
+    false_alarms_by_method(f, mx);
+    fputs("### On the tiny-budget cases (16 evaluations a run)\n\n", f);
+    cli_flag_report(f, &mx->flags_tiny);
     fprintf(f, "## Silent cells (%u)\n\n", mx->count[QMC_STAB_SILENT]);
     if (mx->count[QMC_STAB_SILENT] == 0)
         fputs("None.\n", f);
@@ -205,9 +247,28 @@ static void json_num(FILE *f, double v)
         fputs("null", f);
 }
 
+/* {"correct":C,"wrong":W,"flags":{"key":[on correct, on wrong],...}} */
+static void json_flags(FILE *f, const qmc_stab_flag_tally *t)
+{
+    fprintf(f, "{\"correct\":%u,\"wrong\":%u,\"flags\":{", t->correct, t->wrong);
+    int first = 1;
+    for (int b = 0; b < 32; b++)
+        if (t->on_correct[b] + t->on_wrong[b] && qmc_flag_key(1u << b)[0]) {
+            fprintf(f, "%s\"%s\":[%u,%u]", first ? "" : ",", qmc_flag_key(1u << b),
+                    t->on_correct[b], t->on_wrong[b]);
+            first = 0;
+        }
+    fputs("}}", f);
+}
+
 void cli_stab_print_json(FILE *f, const cli_stab_matrix *mx)
 {
-    fprintf(f, "{\"quick\":%s,\"seconds\":%.3f,\"runs\":%u,\"ok_flagged_runs\":%u,"
+    fputs("{\"flag_precision\":{\"normal_budget\":", f);
+    json_flags(f, &mx->flags_normal);
+    fputs(",\"tiny_budget\":", f);
+    json_flags(f, &mx->flags_tiny);
+    fputs("},", f);
+    fprintf(f, "\"quick\":%s,\"seconds\":%.3f,\"runs\":%u,\"ok_flagged_runs\":%u,"
             "\"ok_flagged_runs_normal_budget\":%u,\"counts\":{\"OK\":%u,\"FLAGGED\":%u,\"REFUSED\":%u,\"SILENT\":%u},\"cells\":[",
             mx->quick ? "true" : "false", mx->seconds, mx->runs, mx->ok_flagged_runs,
             mx->ok_flagged_runs_normal, mx->count[0], mx->count[1], mx->count[2], mx->count[3]);
@@ -244,6 +305,12 @@ void cli_stab_print_summary(FILE *f, const cli_stab_matrix *mx)
             mx->count[2], mx->count[3]);
     fprintf(f, "  correct runs flagged anyway: %u of %u at normal budgets, %u of %u in all\n",
             mx->ok_flagged_runs_normal, mx->runs_normal, mx->ok_flagged_runs, mx->runs);
+    const qmc_stab_flag_tally *fn = &mx->flags_normal;
+    for (int b = 0; b < 32; b++)
+        if ((1u << b) == QMC_FLAG_ERROR_UNRELIABLE)
+            fprintf(f, "  error_unreliable: on %u of %u correct and %u of %u wrong runs with a "
+                    "bar at normal budgets\n", fn->on_correct[b], fn->correct, fn->on_wrong[b],
+                    fn->wrong);
     for (size_t i = 0; i < mx->n_cases * mx->n_methods; i++) {
         const cli_stab_cell *cell = &mx->cells[i];
         if (cell->cls != QMC_STAB_SILENT)

@@ -45,7 +45,20 @@ typedef struct qmc_integrand {
      * successful run with the result it returns; it must be
      * deterministic (the same result gives the same flags) and cheap. */
     uint32_t (*audit)(const void *ctx, const struct qmc_result *res);
+    /* Optional (NULL, 0: not known), for 1-dimensional integrands only:
+     * where in (0,1) the kinks and jumps that the smoothness declares lie -
+     * every one of them, strictly ascending, at most
+     * QMC_INTEGRAND_MAX_BREAKS.  Between two breaks the integrand is as
+     * smooth as an analytic one.  Gauss-Kronrod starts from these as
+     * interval ends, so that no rule straddles a jump (the step at 1 - 1e-9
+     * sat in the gap beyond its last node); `auto` then prefers it for a
+     * 1D integrand with jumps.  The test functions set them (step,
+     * genz-continuous and genz-discontinuous in 1D). */
+    const double *breaks;
+    uint32_t n_breaks;
 } qmc_integrand;
+
+#define QMC_INTEGRAND_MAX_BREAKS 64u
 
 /*
  * Cooperative cancellation: an optional hook the caller hands to an

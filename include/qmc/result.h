@@ -42,7 +42,7 @@ extern "C" {
     X(UNRESOLVED, 15, "unresolved",                                                  \
       "the rule's nodes missed the integrand's mass: levels agree at (near) zero")   \
     X(MIS_UNDERSAMPLED, 16, "mis_undersampled",                                      \
-      "a MIS technique owns mass it almost never sampled")
+      "a sampling technique owns mass it almost never sampled")
 
 enum {
 #define QMC__FLAG_ENUM(name, bit, key, text) QMC_FLAG_##name = 1u << (bit),

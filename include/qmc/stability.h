@@ -83,6 +83,42 @@ qmc_stab_verdict qmc_stab_classify(int refused, const qmc_result *r,
  */
 uint32_t qmc_stab_silent_threshold(uint32_t runs, double p_chance, double alpha);
 
+/* The test's two numbers, the same wherever runs are judged: an honest
+ * 3-sigma bar misses 1% of the time, and a set of runs is called SILENT
+ * when that many misses would happen by chance less than once in 1000. */
+#define QMC_STAB_CHANCE_MISS 0.01
+#define QMC_STAB_SILENT_ALPHA 1e-3
+
+/*
+ * The one binomial test `qmc stability` applies to a cell and `qmc compare`
+ * to a method's runs: how many SILENT runs out of `runs` make them SILENT.
+ * Randomized runs: qmc_stab_silent_threshold(runs, QMC_STAB_CHANCE_MISS,
+ * QMC_STAB_SILENT_ALPHA) (2 of 3, 3 of 5, 3 of 9, 4 of 64), since each
+ * honest one misses by chance 1% of the time; deterministic ones: 1, since
+ * a rule's miss repeats on every run and is no accident.
+ */
+uint32_t qmc_stab_silent_needed(uint32_t runs, int randomized);
+
+/*
+ * How often each flag fired on correct and on wrong answers, so that a
+ * report can say what a flag is worth (a flag on most correct answers is
+ * ignored, and then it protects nobody).  A run counts when it was not
+ * refused and declares a bar (error_kind != none: plain QMC has no bar to
+ * be right or wrong about); correct means covered (qmc_stab_classify),
+ * wrong means not covered.  Bit b of the flags is counted in
+ * on_correct[b] or on_wrong[b]; any flag at all in correct_flagged or
+ * wrong_flagged.
+ */
+typedef struct qmc_stab_flag_tally {
+    uint32_t correct, wrong;
+    uint32_t correct_flagged, wrong_flagged;
+    uint32_t on_correct[32], on_wrong[32];
+} qmc_stab_flag_tally;
+
+void qmc_stab_flag_tally_add(qmc_stab_flag_tally *t, int refused, const qmc_stab_verdict *v,
+                             const qmc_result *r);
+void qmc_stab_flag_tally_merge(qmc_stab_flag_tally *into, const qmc_stab_flag_tally *from);
+
 /* Counts of each class over a cell's runs, and the cell's class:
  * SILENT when silent >= threshold; else REFUSED when every run was
  * refused; else FLAGGED when at least half the runs are wrong (flagged

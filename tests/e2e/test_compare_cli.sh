@@ -69,6 +69,14 @@ grep -q '^- \*\*Within .*\*\*: `' "$tmp/local/REPORT.md" && ok ||
 grep -q '^## How honest each method' "$tmp/local/REPORT.md" && ok ||
     bad "REPORT.md lacks the honesty section"
 grep -q '`rqmc/sobol/owen` | 4 |' "$tmp/local/REPORT.md" && ok || bad "honesty row for rqmc"
+# the per-flag table counts the runs of compare.csv: correct = covered, with a bar
+grep -q '^## What each flag was worth here' "$tmp/local/REPORT.md" && ok ||
+    bad "REPORT.md lacks the per-flag section"
+want=$(awk -F, 'NR > 1 && $10 != "none" && $11 != "REFUSED" { n++; if ($11 == "OK") c++ }
+    END { printf "%d runs with a bar: %d correct (covered), %d wrong.", n, c, n - c }' \
+    "$tmp/local/compare.csv")
+grep -qF "$want" "$tmp/local/REPORT.md" && ok || bad "per-flag counts: want '$want'"
+grep -q '^| any flag | ' "$tmp/local/REPORT.md" && ok || bad "per-flag table lacks 'any flag'"
 grep -q 'slope' "$tmp/local/compare.gp" && ok || bad "no fitted slopes in the chart legend"
 grep -q 'Pareto front' "$tmp/local/compare.gp" && ok || bad "no Pareto front in the chart"
 

@@ -92,7 +92,18 @@ d = json.load(open(sys.argv[1]))
 assert d["counts"]["SILENT"] == int(sys.argv[2]), d["counts"]
 assert len(d["cells"]) == 16
 assert sum(d["counts"].values()) == 16
+# what each flag was worth: counts within the runs they are shares of
+for budget in ("normal_budget", "tiny_budget"):
+    fp = d["flag_precision"][budget]
+    for key, (on_ok, on_bad) in fp["flags"].items():
+        assert 0 <= on_ok <= fp["correct"] and 0 <= on_bad <= fp["wrong"], (key, fp)
+assert d["flag_precision"]["normal_budget"]["correct"] + \
+    d["flag_precision"]["normal_budget"]["wrong"] > 0
 PYEOF
+grep -q '^## What each flag is worth' "$tmp/st/REPORT.md" && ok ||
+    bad "REPORT.md lacks the per-flag section"
+grep -q '^| error_unreliable | ' "$tmp/st/REPORT.md" && ok ||
+    bad "REPORT.md has no error_unreliable row"
 
 # Same matrix on one thread (seconds aside)
 "$QMC" stability --quick --cases $CASES --methods $METHODS --threads 1 --out "$tmp/st1" \

@@ -14,7 +14,8 @@
  *   the method returned an error                      REFUSED
  * and the binomial threshold that keeps an honest randomized cell from
  * being called SILENT by chance (checked against binomial tails computed
- * here by direct summation).
+ * here by direct summation), the same test for qmc compare's methods, and
+ * the per-flag counts of correct and wrong answers.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -190,6 +191,64 @@ static void test_tally(void **state)
     assert_int_equal(qmc_stab_tally_class(&r, 1), QMC_STAB_REFUSED);
 }
 
+/* The one test stability and compare share: one 3-sigma miss in nine
+ * randomized runs (a 1% event each, P(>= 1) = 8.6%) is chance, as are two
+ * (P = 0.34%); three (P = 8e-5) are not.  A deterministic rule's one miss
+ * is no chance: it repeats on every run. */
+static void test_silent_needed(void **state)
+{
+    (void)state;
+    assert_true(binom_tail(9, QMC_STAB_CHANCE_MISS, 2) >= QMC_STAB_SILENT_ALPHA);
+    assert_true(binom_tail(9, QMC_STAB_CHANCE_MISS, 3) < QMC_STAB_SILENT_ALPHA);
+    assert_int_equal(qmc_stab_silent_needed(9, 1), 3);
+    assert_int_equal(qmc_stab_silent_needed(9, 0), 1);
+    assert_int_equal(qmc_stab_silent_needed(1, 1), 1);
+    for (unsigned n = 1; n <= 200; n++)
+        assert_int_equal(qmc_stab_silent_needed(n, 1),
+                         qmc_stab_silent_threshold(n, QMC_STAB_CHANCE_MISS, QMC_STAB_SILENT_ALPHA));
+    /* nine randomized runs with one silent: the class stays OK */
+    qmc_stab_tally t = {0};
+    qmc_result ok = result(1.0, 0.1, QMC_ERROR_STDERR, 0);
+    qmc_result bad = result(2.0, 0.1, QMC_ERROR_STDERR, 0);
+    qmc_stab_verdict vo = qmc_stab_classify(0, &ok, &one), vb = qmc_stab_classify(0, &bad, &one);
+    for (int i = 0; i < 8; i++)
+        qmc_stab_tally_add(&t, &vo, &ok);
+    qmc_stab_tally_add(&t, &vb, &bad);
+    assert_int_equal(qmc_stab_tally_class(&t, qmc_stab_silent_needed(t.runs, 1)), QMC_STAB_OK);
+    assert_int_equal(qmc_stab_tally_class(&t, qmc_stab_silent_needed(t.runs, 0)), QMC_STAB_SILENT);
+}
+
+/* Per-flag counts: a flag on a covered run counts on correct answers, on
+ * an uncovered one on wrong answers; refusals and bar-less runs not at all. */
+static void test_flag_tally(void **state)
+{
+    (void)state;
+    qmc_stab_flag_tally t = {0}, sum = {0};
+    qmc_result ok = result(1.0, 0.1, QMC_ERROR_STDERR, QMC_FLAG_ERROR_UNRELIABLE);
+    qmc_result okq = result(1.0, 0.1, QMC_ERROR_STDERR, 0);
+    qmc_result bad = result(2.0, 0.1, QMC_ERROR_STDERR,
+                            QMC_FLAG_ERROR_UNRELIABLE | QMC_FLAG_FEW_NONZERO);
+    qmc_result nobar = result(2.0, 0.0, QMC_ERROR_NONE, QMC_FLAG_NOT_POW2);
+    qmc_stab_verdict v;
+    v = qmc_stab_classify(0, &ok, &one), qmc_stab_flag_tally_add(&t, 0, &v, &ok);
+    v = qmc_stab_classify(0, &okq, &one), qmc_stab_flag_tally_add(&t, 0, &v, &okq);
+    v = qmc_stab_classify(0, &bad, &one), qmc_stab_flag_tally_add(&t, 0, &v, &bad);
+    v = qmc_stab_classify(0, &nobar, &one), qmc_stab_flag_tally_add(&t, 0, &v, &nobar);
+    v = qmc_stab_classify(1, NULL, &one), qmc_stab_flag_tally_add(&t, 1, &v, &bad);
+    assert_int_equal(t.correct, 2);
+    assert_int_equal(t.wrong, 1);
+    assert_int_equal(t.correct_flagged, 1);
+    assert_int_equal(t.wrong_flagged, 1);
+    assert_int_equal(t.on_correct[10], 1); /* error_unreliable is bit 10 */
+    assert_int_equal(t.on_wrong[10], 1);
+    assert_int_equal(t.on_wrong[12], 1);  /* few_nonzero */
+    assert_int_equal(t.on_correct[2] + t.on_wrong[2], 0); /* not_pow2: no bar, not counted */
+    qmc_stab_flag_tally_merge(&sum, &t);
+    qmc_stab_flag_tally_merge(&sum, &t);
+    assert_int_equal(sum.correct, 4);
+    assert_int_equal(sum.on_wrong[12], 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -203,6 +262,8 @@ int main(void)
         cmocka_unit_test(test_refused),
         cmocka_unit_test(test_threshold),
         cmocka_unit_test(test_tally),
+        cmocka_unit_test(test_silent_needed),
+        cmocka_unit_test(test_flag_tally),
     };
     return cmocka_run_group_tests_name("stability_classify", tests, NULL, NULL);
 }
