@@ -99,7 +99,7 @@ FLAGS = (
      "too few nonzero values to test for heavy tails: infinite variance not ruled out"),
     (15, "unresolved",
      "the rule's nodes missed the integrand's mass: levels agree at (near) zero"),
-    (16, "mis_undersampled", "a MIS technique owns mass it almost never sampled"),
+    (16, "mis_undersampled", "a sampling technique owns mass it almost never sampled"),
 )
 
 
