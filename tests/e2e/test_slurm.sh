@@ -171,7 +171,30 @@ PartitionName=qmc Nodes=qmcnode Default=YES MaxTime=INFINITE State=UP
 EOF
 slurmctld -D -f "$SLURM_CONF" 2> "$tmp/slurmctld.err" &
 SLURMCTLD=$!
-slurmd -D -N qmcnode -f "$SLURM_CONF" 2> "$tmp/slurmd.err" &
+# Slurm 22.05's slurmd loads its cgroup plugin whatever the task and
+# proctrack plugins are, and gives up when /sys/fs/cgroup is empty (a bare
+# chroot's is).  Then it runs in a private mount namespace of its own where
+# the hierarchies /proc/self/cgroup names are mounted again (v1, or the v2
+# tree), which nothing outside sees (unshare -m makes mounts private;
+# unshare execs, so $! is slurmd).
+if [ -n "$(ls -A /sys/fs/cgroup 2>/dev/null)" ] && [ -z "${QMC_TEST_SLURMD_NS:-}" ]; then
+    slurmd -D -N qmcnode -f "$SLURM_CONF" 2> "$tmp/slurmd.err" &
+else
+    echo "slurm: /sys/fs/cgroup is empty here: slurmd mounts its cgroups in a private mount namespace"
+    # shellcheck disable=SC2016
+    unshare -m sh -c '
+        set -e
+        mount -t tmpfs -o mode=755 qmc-cgroups /sys/fs/cgroup
+        if [ "$(cut -d: -f1 /proc/self/cgroup)" = 0 ]; then
+            umount /sys/fs/cgroup; mount -t cgroup2 none /sys/fs/cgroup
+        else
+            for h in $(cut -d: -f2 /proc/self/cgroup | grep -v "^$"); do
+                d=${h#name=}; mkdir -p "/sys/fs/cgroup/$d"
+                mount -t cgroup -o "$h" none "/sys/fs/cgroup/$d"
+            done
+        fi
+        exec slurmd -D -N qmcnode -f "$1"' sh "$SLURM_CONF" 2> "$tmp/slurmd.err" &
+fi
 SLURMD=$!
 node_idle() { [ "$(sinfo -h -n qmcnode -o %t 2>/dev/null)" = idle ]; }
 poll 30 'node_idle || ! kill -0 $SLURMCTLD 2>/dev/null || ! kill -0 $SLURMD 2>/dev/null'
