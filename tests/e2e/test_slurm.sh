@@ -85,7 +85,7 @@ cleanup() {
 # Fails the test at once with a daemon's log: nothing below can run.
 give_up() {
     bad "$1"
-    for f in "$tmp"/munged.log "$tmp"/slurmctld.log "$tmp"/slurmd.log; do
+    for f in "$tmp"/munged.log "$tmp"/slurmctld.log "$tmp"/slurmd.log "$tmp"/slurmd.err; do
         [ -s "$f" ] && { echo "--- $f"; tail -n 15 "$f"; }
     done
     finish
@@ -182,8 +182,12 @@ if [ -n "$(ls -A /sys/fs/cgroup 2>/dev/null)" ] && [ -z "${QMC_TEST_SLURMD_NS:-}
 else
     echo "slurm: /sys/fs/cgroup is empty here: slurmd mounts its cgroups in a private mount namespace"
     # shellcheck disable=SC2016
-    unshare -m sh -c '
+    # --propagation unchanged: in a chroot / is no mount point, so
+    # unshare's default (making / private) fails; /sys is one, and is made
+    # private here, in the new namespace only.
+    unshare -m --propagation unchanged sh -c '
         set -e
+        mount --make-rprivate /sys
         mount -t tmpfs -o mode=755 qmc-cgroups /sys/fs/cgroup
         if [ "$(cut -d: -f1 /proc/self/cgroup)" = 0 ]; then
             umount /sys/fs/cgroup; mount -t cgroup2 none /sys/fs/cgroup
