@@ -18,10 +18,16 @@
  * Gauss-Legendre nodes are (their O(n^2) work can pass any evaluation
  * count here), and after every chunk, counting evaluations: a cancel
  * takes effect within about QMC_INTERRUPT_EVALS evaluations.
+ *
+ * The bar |fine - coarse| is checked by evidence that shares none of the
+ * levels' nodes (tensor_check, below): the same rule at the next sizes
+ * above the coarse level, and a probe of the values' rounding.
  */
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 
+#include "bits.h"
 #include "msg.h"
 #include "qmc/quad.h"
 #include "quad_impl.h"
@@ -100,7 +106,7 @@ typedef struct tensor_scratch {
     double *pf;     /* TENSOR_CHUNK values */
     double *marg;   /* dims x n: sum of w f over the nodes with index k on axis j */
     double *coef;   /* n: one marginal's Legendre coefficients */
-    double abs_sum; /* sum of |w f| over the marginals' nodes */
+    double abs_sum; /* sum of |w f| over the last sum's nodes */
     uint32_t *idx;  /* the odometer, dims digits */
     uint32_t *ridx; /* TENSOR_CHUNK x dims: each row's node indices */
 } tensor_scratch;
@@ -159,8 +165,7 @@ static int tensor_sum(const qmc_integrand *f, const double *x,
             return QMC_ECANCELED;
     }
     *out = sum + comp;
-    if (marg)
-        t->abs_sum = abs_sum;
+    t->abs_sum = abs_sum;
     return 0;
 }
 
@@ -232,6 +237,141 @@ static int gl_marginal_unresolved(const double *x, uint32_t n, uint32_t d, const
             return 1;
     }
     return 0;
+}
+
+/*
+ * The check.  Nested levels share their nodes: when both sample a
+ * frequency at the same phase, or both miss a peak, they agree and the bar
+ * says "exact" (Simpson at 17 and 9 nodes on cos(100 x): 0.954 +- 1e-7
+ * against -0.005; midpoint at 16 and 8 on cos(2 pi 16 (x + y)): 1 +- 0
+ * against 0).  So the rule is run again at the TENSOR_SIBLINGS sizes just
+ * above the coarse level (n_c + 1, n_c + 2; Simpson n_c + 2, n_c + 4),
+ * whose nodes fall between the levels' (a midpoint node (i + 1/2)/m is
+ * never one of (j + 1/2)/n when m is odd and n even; trapezoid and
+ * Simpson share their end points and a few others; Gauss-Legendre at most
+ * the centre).  A resolved integrand converges monotonically: a sibling is
+ * nearer the truth than the coarse level, so |sibling - fine| <= |coarse -
+ * fine| and the bar stands.  An aliased or missed feature lands at another
+ * phase at every size, and the siblings scatter by its amplitude; the bar
+ * becomes the largest |sibling - fine|, and where that is a tenth of the
+ * estimate the node watch (rule_evidence.h) flags it unresolved.  The
+ * siblings cost about two coarse levels: 2 / (2^d + 1) of the rule in d
+ * dimensions (67% at d = 1, 12% at d = 4).
+ *
+ * And a rounding probe: f at TENSOR_PROBES hashed points and one ulp away
+ * on every axis (toward 1 or 0 by a hashed bit).  Levels share their
+ * rounded values at common nodes, so their difference cannot see rounding;
+ * the rms of the probe's differences is what rounding the nodes (and f's
+ * own arguments) does to one value, and a sum of values with weights w
+ * carries about sqrt(sum w^2) of it when the errors are independent
+ * (trapezoid at 334 nodes on cos(27759 x), aliased to a periodic sum of 0:
+ * 9e-14 of the integral of |f| off under a bar 21 times smaller).  On four
+ * such cosines the error was 0.15-0.57 of rms sqrt(sum w^2), so the floor
+ * is TENSOR_ROUND_FACTOR = 2 times that (3.2e-13 on the case above).  Where the
+ * floor is above the levels' bar and above TENSOR_ROUND_ULPS ulps of the
+ * integral of |f| (below that, last-bit noise any reader allows), the bar
+ * is raised to it and `roundoff` set.
+ *
+ * Both run only within the budget the levels left: siblings in increasing
+ * size while they fit, then the probes.  No seed: the same request gives
+ * the same bytes.
+ */
+enum { TENSOR_SIBLINGS = 2, TENSOR_PROBES = 16 };
+#define TENSOR_ROUND_FACTOR 2.0
+#define TENSOR_ROUND_ULPS 64.0
+static const uint64_t TENSOR_PROBE_SEED = 0x74656e736f72ull; /* "tensor" */
+
+/* The sibling sizes (increasing) into m[]; returns how many. */
+static uint32_t sibling_sizes(qmc_rule1d rule, uint32_t n, uint32_t nc, uint32_t *m)
+{
+    const uint32_t step = rule == QMC_RULE1D_SIMPSON ? 2 : 1;
+    uint32_t k = 0;
+    for (uint32_t c = nc + step; nc && c < n && k < TENSOR_SIBLINGS; c += step)
+        m[k++] = c;
+    return k;
+}
+
+typedef struct tensor_checked {
+    double spread;      /* max |sibling - fine|, 0 without siblings */
+    double round_floor; /* the probe's floor, 0 without probes */
+} tensor_checked;
+
+/* The probes: f at hashed points and one ulp away, into the chunk. */
+static void rounding_probe(const qmc_integrand *f, const double *w, uint32_t n,
+                           tensor_scratch *t, tensor_checked *out, uint64_t *evals,
+                           uint64_t *nonfinite)
+{
+    const uint32_t d = f->dims, k = TENSOR_PROBES;
+    double *x = t->px, *xp = t->px + (size_t)k * d;
+    for (uint32_t i = 0; i < k; i++)
+        for (uint32_t j = 0; j < d; j++) {
+            uint64_t h = qmc__hash3(TENSOR_PROBE_SEED, i, j);
+            double v = qmc__u01_from_bits(h);
+            double u = nextafter(v, (h & 1) || v == 0.0 ? 1.0 : 0.0);
+            x[(size_t)i * d + j] = v;
+            xp[(size_t)i * d + j] = u < 1.0 ? u : nextafter(v, 0.0);
+        }
+    f->eval(f->ctx, x, 2 * k, d, t->pf);
+    *evals += 2 * k;
+    double ms = 0.0;
+    for (uint32_t i = 0; i < 2 * k; i++)
+        if (!isfinite(t->pf[i]))
+            (*nonfinite)++;
+    for (uint32_t i = 0; i < k; i++) {
+        double diff = t->pf[k + i] - t->pf[i];
+        ms += isfinite(diff) ? diff * diff : 0.0;
+    }
+    /* sqrt(sum of w^2) of the product rule: the 1D one to the d-th */
+    double wsq = 0.0;
+    for (uint32_t i = 0; i < n; i++)
+        wsq += w[i] * w[i];
+    out->round_floor = TENSOR_ROUND_FACTOR * sqrt(ms / k) * pow(sqrt(wsq), (double)d);
+}
+
+/* Siblings and probes within `left` evaluations, nodes in xs, ws (room for
+ * n each).  Returns QMC_ECANCELED when the poll fires, else 0. */
+static int tensor_check(const qmc_integrand *f, qmc_rule1d rule, uint32_t n, uint32_t nc,
+                        double est, const double *wf, uint64_t left, double *xs, double *ws,
+                        tensor_scratch *t, qmc__poll *poll, tensor_checked *out,
+                        uint64_t *evals, uint64_t *nonfinite)
+{
+    uint32_t m[TENSOR_SIBLINGS];
+    uint32_t k = sibling_sizes(rule, n, nc, m);
+    for (uint32_t i = 0; i < k; i++) {
+        int overflow = 0;
+        uint64_t cost = pow_u64(m[i], f->dims, &overflow);
+        if (overflow || cost > left)
+            break;
+        int rc = qmc__rule1d_nodes(rule, m[i], xs, ws, poll);
+        double q;
+        if (rc == 0)
+            rc = tensor_sum(f, xs, ws, m[i], cost, t, 0, poll, &q, evals, nonfinite);
+        if (rc)
+            return rc == QMC_ECANCELED ? rc : 0; /* m is valid: only a cancel */
+        out->spread = fmax(out->spread, fabs(q - est));
+        left -= cost;
+    }
+    if (left >= 2 * TENSOR_PROBES)
+        rounding_probe(f, wf, n, t, out, evals, nonfinite);
+    return 0;
+}
+
+uint64_t qmc_quad_tensor_check_evals(qmc_rule1d rule, uint32_t n, uint32_t dims)
+{
+    uint32_t m[TENSOR_SIBLINGS];
+    uint32_t nc = (unsigned)rule < QMC_RULE1D_COUNT ? coarse_n(rule, n) : 0;
+    if (nc == 0)
+        return 0;
+    uint32_t k = sibling_sizes(rule, n, nc, m);
+    uint64_t total = 2 * TENSOR_PROBES;
+    for (uint32_t i = 0; i < k; i++) {
+        int overflow = 0;
+        uint64_t c = pow_u64(m[i], dims, &overflow);
+        if (overflow || c > UINT64_MAX - total)
+            return UINT64_MAX;
+        total += c;
+    }
+    return total;
 }
 
 /* "tensor gauss-legendre: 64^6 + 32^6 = 69793218560 evaluations exceed the
@@ -347,6 +487,10 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     if (tensor_sum(f, xf, wf, n, fine, &t, watch, &poll, &est, &evals, &nonfinite))
         return cancelled(&m, res, evals);
     uint32_t flags = 0;
+    /* The fine rule's integral of |f|: the scale the bar is judged against
+     * (rule_evidence.h) and the reader's "relative to the integral of
+     * |f|" for integrals near 0. */
+    const double abs_fine = t.abs_sum;
     if (watch && !nonfinite && gl_marginal_unresolved(xf, n, d, t.marg, t.coef, t.abs_sum))
         flags |= QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE;
     if (nc) {
@@ -358,6 +502,18 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
         err = fabs(est);
         flags |= QMC_FLAG_ERROR_UNRELIABLE;
     }
+    /* the siblings and the probe, in the coarse level's node arrays; a
+     * bar flagged already (no coarse level) has nothing to check */
+    tensor_checked chk = {0.0, 0.0};
+    if (nc && tensor_check(f, rule, n, nc, est, wf, max_evals - cost, xc, wc, &t, &poll, &chk,
+                           &evals, &nonfinite))
+        return cancelled(&m, res, evals);
+    const double scale = fmax(fabs(est), isfinite(abs_fine) ? abs_fine : 0.0);
+    if (chk.round_floor > err && chk.round_floor > TENSOR_ROUND_ULPS * DBL_EPSILON * scale)
+        flags |= QMC_FLAG_ROUNDOFF;
+    else
+        chk.round_floor = 0.0;
+    err = fmax(err, fmax(chk.spread, chk.round_floor));
     if (nonfinite)
         flags |= QMC_FLAG_NONFINITE | QMC_FLAG_ERROR_UNRELIABLE;
     res->estimate = est;
@@ -368,5 +524,6 @@ int qmc_quad_tensor(const qmc_integrand *f, qmc_rule1d rule, uint32_t n,
     res->evals = evals;
     res->nonfinite = nonfinite;
     res->flags = flags;
+    res->abs_integral = isfinite(abs_fine) ? abs_fine : 0.0;
     return 0;
 }

@@ -55,7 +55,9 @@ uint32_t qmc__rule_evidence_flags(const qmc_result *res, const qmc__node_stats *
     const int one_sign = stats->positive == 0 || stats->positive == stats->nonzero;
     if (stats->nonzero == 0 || (res->estimate == 0.0 && one_sign))
         return blind;
-    const double mass = fmax(fabs(res->estimate), stats->sum_abs / (double)stats->evals);
+    const double abs_int = res->abs_integral > 0 ? res->abs_integral
+                                                 : stats->sum_abs / (double)stats->evals;
+    const double mass = fmax(fabs(res->estimate), abs_int);
     if (!(res->error < QMC__UNRESOLVED_SHARE * mass))
         return blind;
     return 0;

@@ -199,7 +199,7 @@ static int case_job(const cli_stab_case *c, qmc_job **out)
             /* the 1D functions take only what they use */
             if (strcmp(c->integrand, "step") == 0)
                 s.a = NULL, s.n_a = 0;
-            if (strcmp(c->integrand, "poly") == 0)
+            if (strcmp(c->integrand, "poly") == 0 || strcmp(c->integrand, "cos") == 0)
                 s.u = NULL, s.n_u = 0;
         }
     }

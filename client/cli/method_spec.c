@@ -95,6 +95,25 @@ static uint64_t largest_root(uint64_t n, uint32_t d, uint64_t k_min)
     return k < k_min ? k_min : k;
 }
 
+static qmc_rule1d tensor_rule(qmc_method m)
+{
+    switch (m) {
+    case QMC_METHOD_MIDPOINT: return QMC_RULE1D_MIDPOINT;
+    case QMC_METHOD_TRAPEZOID: return QMC_RULE1D_TRAPEZOID;
+    case QMC_METHOD_SIMPSON: return QMC_RULE1D_SIMPSON;
+    default: return QMC_RULE1D_GAUSS_LEGENDRE;
+    }
+}
+
+/* A tensor rule's evaluations at k points an axis, checked (n + 1 once
+ * past n). */
+static uint64_t tensor_cost(qmc_rule1d rule, uint64_t k, uint32_t d, uint64_t n)
+{
+    uint64_t levels = power_upto(k, d, n) + power_upto((k + 1) / 2, d, n);
+    uint64_t check = qmc_quad_tensor_check_evals(rule, k > UINT32_MAX ? UINT32_MAX : (uint32_t)k, d);
+    return levels > n || check > n - levels ? n + 1 : levels + check;
+}
+
 static uint64_t floor_pow2(uint64_t n)
 {
     uint64_t p = 1;
@@ -151,7 +170,10 @@ void cli_method_spec(const cli_method *m, const cli_budget *b, qmc_integrate_spe
     case QMC_METHOD_MIDPOINT: case QMC_METHOD_TRAPEZOID: case QMC_METHOD_SIMPSON:
     case QMC_METHOD_GAUSS_LEGENDRE: {
         /* A tensor rule also evaluates its half-size rule for the error
-         * estimate: n^d + ceil(n/2)^d evaluations in all. */
+         * estimate, n^d + ceil(n/2)^d evaluations, and then checks its bar
+         * (qmc_quad_tensor_check_evals) with what the budget leaves: room
+         * is left for the check, so that every run is checked. */
+        const qmc_rule1d rule = tensor_rule(m->method);
         uint64_t k = largest_root(b->evals, b->dims, 2);
         /* Gauss-Legendre nodes cost O(n^2) to compute (0.35 s at 4096):
          * past 2048 an axis the budget buys time, not accuracy worth it. */
@@ -161,8 +183,7 @@ void cli_method_spec(const cli_method *m, const cli_budget *b, qmc_integrate_spe
         if (odd && k % 2 == 0)
             k--;
         uint64_t floor_k = odd ? 3 : 2;
-        while (k > floor_k &&
-               power_upto(k, b->dims, b->evals) + power_upto((k + 1) / 2, b->dims, b->evals) > b->evals)
+        while (k > floor_k && tensor_cost(rule, k, b->dims, b->evals) > b->evals)
             k -= odd ? 2 : 1;
         if (k < floor_k)
             k = floor_k;

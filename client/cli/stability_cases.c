@@ -6,8 +6,8 @@
  * 13's audit and the textbook failure modes): jumps, kinks, endpoint
  * singularities, infinite variance, narrow peaks in 1-5 dimensions, tiny
  * supports and tiny lights, unscrambled Halton past 10 dimensions,
- * non-power-of-two nets, tensor rules at d = 10, tiny budgets, near-zero
- * integrals, NaN and overflow.  References come from closed forms
+ * non-power-of-two nets, tensor rules at d = 10, tiny budgets, grids that
+ * alias, near-zero integrals, NaN and overflow.  References come from closed forms
  * (qmc/testfn.h) or the scene reference module (qmc_scene_reference),
  * never from a method in the matrix.  Adding a case is adding a row here.
  */
@@ -127,6 +127,16 @@ const cli_stab_case cli_stab_cases[] = {
     {.name = "tiny-disc-3d", .category = "tiny budget",
      .why = "16 evaluations of a discontinuous integrand",
      .integrand = "genz-discontinuous", .dims = 3, .evals = TINY, .tiny = 1, .seeds = 64},
+    /* regular grids that alias (issue 23): budgets that buy the issue's grids,
+     * Simpson 17 and 9 nodes on cos(100 x), midpoint 16 and 8 an axis on
+     * cos(2 pi 16 (x + y)), with room for the rules' check */
+    {.name = "alias-cos-1d", .category = "aliasing",
+     .why = "issue 23: cos(100 x), Simpson's 17 and 9 nodes at one phase",
+     .integrand = "cos", .dims = 1, .a = {100}, .n_params = 1, .evals = 82},
+    {.name = "alias-osc-2d", .category = "aliasing",
+     .why = "issue 23: 2 pi 16 an axis, in phase with 16 and 8 midpoints",
+     .integrand = "genz-oscillatory", .dims = 2, .a = {100.53096491487338, 100.53096491487338},
+     .u = {0, 0}, .n_params = 2, .evals = 533, .scale = 1 /* |cos| <= 1 bounds int |f| */},
     /* near-zero integrals */
     {.name = "zero-poly-1d", .category = "near-zero integral",
      .why = "-1 + 2x: integral exactly 0", .integrand = "poly", .dims = 1,

@@ -166,7 +166,19 @@ QMC_MUST_CHECK int qmc_quad_gk(const qmc_integrand *f,
  * error, so it overstates the fine rule's error for smooth integrands.  The
  * coarse rule costs n_c^dims more evaluations, counted against the budget.
  * When no coarser rule exists (n at the rule's minimum) the error is
- * |estimate| and QMC_FLAG_ERROR_UNRELIABLE is set.  res->n is n^dims.
+ * |estimate| and QMC_FLAG_ERROR_UNRELIABLE is set.  res->n is n^dims, and
+ * res->abs_integral the fine rule's sum of |w f|.
+ *
+ * The bar is then checked by evidence that shares none of the levels'
+ * nodes, as far as the budget left by the two levels allows
+ * (qmc_quad_tensor_check_evals): the same rule at the two sizes above n_c
+ * (n_c + 1 and n_c + 2; Simpson n_c + 2 and n_c + 4; only sizes below n),
+ * and a rounding probe of 32 evaluations.  The error is at least the
+ * largest difference between a sibling and the estimate (an aliased
+ * frequency or a missed feature moves with the nodes; a resolved
+ * integrand does not), and at least the probe's rounding floor where that
+ * is above |fine - coarse| and 64 ulps of the integral of |f|
+ * (QMC_FLAG_ROUNDOFF).  The estimate is the fine rule's.
  */
 
 /* Workspace bytes for rule with n points per axis in dims dimensions (0
@@ -177,6 +189,12 @@ size_t qmc_quad_tensor_rule_workspace_bytes(qmc_rule1d rule, uint32_t n, uint32_
 /* The same for the rule that needs the most (Gauss-Legendre): enough for
  * any rule. */
 size_t qmc_quad_tensor_workspace_bytes(uint32_t n, uint32_t dims);
+
+/* The evaluations qmc_quad_tensor's check adds to n^dims + n_c^dims when
+ * the budget holds them: its two sibling levels and its rounding probe
+ * (UINT64_MAX past 2^64).  A caller that fits n to a budget leaves room
+ * for them. */
+uint64_t qmc_quad_tensor_check_evals(qmc_rule1d rule, uint32_t n, uint32_t dims);
 
 /*
  * Integrates f over [0,1]^f->dims.  Refuses, BEFORE evaluating anything,

@@ -40,7 +40,8 @@ extern "C" {
     X(TAIL_UNTESTED, 14, "tail_untested",                                            \
       "too few nonzero values to test for heavy tails: infinite variance not ruled out") \
     X(UNRESOLVED, 15, "unresolved",                                                  \
-      "the rule's nodes missed the integrand's mass: levels agree at (near) zero")   \
+      "the rule does not resolve the integrand: its nodes missed mass, or its bar is " \
+      "a tenth of the estimate or more")                                             \
     X(MIS_UNDERSAMPLED, 16, "mis_undersampled",                                      \
       "a sampling technique owns mass it almost never sampled")
 

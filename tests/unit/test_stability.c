@@ -227,6 +227,16 @@ static void test_new_flags_quiet_on_clean_runs(void **state)
         for (size_t j = 0; j < sizeof m / sizeof m[0]; j++) {
             run_out o = run(fam[i], 3, m[j], NULL);
             assert_int_equal(o.err, 0);
+            /* Not a clean run: Gauss-Legendre at 16 nodes across a jump
+             * is 10% off (0.4436 against 0.4040), and the check's
+             * siblings at 9 and 10 nodes scatter by 0.168, a bar 38% of
+             * the estimate, which is unresolved by the book. */
+            if (m[j] == QMC_METHOD_GAUSS_LEGENDRE && i == 5) {
+                assert_true(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+                assert_true(fabs(o.rep.res.estimate - 0.40404589877239888) <=
+                            3 * o.rep.res.error);
+                continue;
+            }
             if (o.rep.res.flags & fresh)
                 fail_msg("%s by %s: flags 0x%x", fam[i], qmc_method_name(m[j]),
                          o.rep.res.flags);

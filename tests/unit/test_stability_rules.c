@@ -205,8 +205,10 @@ static void gl_2048(qmc_integrate_spec *s) { s->n_axis = 2048; }
  * nodes an axis under 2^20 evaluations): 9.97e-7 +- 3.9e-8 against
  * 1.65e-6, unflagged.  The marginals' Legendre coefficients had not begun
  * to decay at l = 72..96 (quad_tensor.c, gl_marginal_unresolved), so the
- * bar is flagged unresolved now.  The control: a 1D peak of width 1/300
- * that 2048 nodes resolve (0.0059081795 to 16 digits) stays unflagged. */
+ * bar is flagged unresolved.  Since issue 23 the siblings at 49 and 50
+ * nodes also scatter by 9.8e-7, so the bar covers the error of 6.5e-7 as
+ * well.  The control: a 1D peak of width 1/300 that 2048 nodes resolve
+ * (0.0059081795 to 16 digits) stays unflagged. */
 static void test_gauss_legendre_unresolved_marginal(void **state)
 {
     (void)state;
@@ -215,7 +217,8 @@ static void test_gauss_legendre_unresolved_marginal(void **state)
     ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
     double truth = gaussian_truth(3, a3, u3);
     ASSERT_COVERS_OR_FLAGGED(o, truth);
-    assert_true(fabs(o.rep.res.estimate - truth) > 3 * o.rep.res.error); /* the flag saves it */
+    assert_true(fabs(o.rep.res.estimate - truth) > 0.3 * truth);   /* the nodes miss it */
+    assert_true(fabs(o.rep.res.estimate - truth) <= o.rep.res.error); /* the siblings see it */
     const double a1[] = {300}, u1[] = {0.37};
     o = run_au("genz-gaussian", 1, a1, u1, QMC_METHOD_GAUSS_LEGENDRE, gl_2048);
     assert_int_equal(o.err, 0);

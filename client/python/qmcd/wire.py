@@ -98,7 +98,8 @@ FLAGS = (
     (14, "tail_untested",
      "too few nonzero values to test for heavy tails: infinite variance not ruled out"),
     (15, "unresolved",
-     "the rule's nodes missed the integrand's mass: levels agree at (near) zero"),
+     "the rule does not resolve the integrand: its nodes missed mass, or its bar is "
+     "a tenth of the estimate or more"),
     (16, "mis_undersampled", "a sampling technique owns mass it almost never sampled"),
 )
 
