@@ -6,6 +6,11 @@
 # leaks (--error-exitcode), and qmcd must exit 0.  A sanitizer build cannot
 # run under valgrind: `make sanitize` passes ASan binaries, which this
 # test recognises and skips (the plain pass runs it).
+# valgrind runs one thread at a time under a lock that is not fair by
+# default: a worker deep in a job could hold it for seconds and starve the
+# event loop, so a JOB_CANCEL went unread past the peer's 15 s socket
+# timeout on a slow CI machine.  --fair-sched=yes hands the lock round in
+# turn, as the kernel would.
 # Env: QMC, QMCD.  Prints "N passed, M failed".
 set -u
 : "${QMC:?QMC must name the qmc binary}"
@@ -29,7 +34,7 @@ shutdown-timeout-ms = 20000
 CONF
 valgrind --tool=memcheck --error-exitcode=99 --leak-check=full \
     --errors-for-leak-kinds=definite,indirect --show-leak-kinds=definite,indirect \
-    --track-fds=no --log-file="$tmp/valgrind.log" \
+    --track-fds=no --fair-sched=yes --log-file="$tmp/valgrind.log" \
     "$QMCD" --foreground --config "$tmp/qmcd.conf" --listen "unix:$SOCK" \
     --ready-file "$tmp/ready" 2> "$tmp/qmcd.log" &
 VPID=$!
