@@ -122,8 +122,7 @@ static void test_own_batch(void **state)
     assert_int_equal(qmc_session_ask(s, &again), 0);
     assert_true(again.points != slot && again.seq == b.seq && again.count == b.count);
     assert_memory_equal(again.points, copy, b.count * DIMS * sizeof *copy);
-    outcome got;
-    session_test_drive(s, p.f, &got);
+    outcome got = session_test_drive(s, p.f);
     session_test_assert_same(&got, &want, "rqmc after own_batch");
     qmc_session_own_batch(s); /* done: a no-op */
     qmc_session_own_batch(NULL);
