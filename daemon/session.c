@@ -35,6 +35,7 @@
 
 #include "log.h"
 #include "modules.h"
+#include "result_msg.h"
 #include "ring.h"
 #include "session.h"
 
@@ -157,18 +158,10 @@ static int send_end(qmcd_conn *c, qmcd_sess_attach *a)
     srv->stats.sessions_done++;
     qmc_msg r = {.type = QMC_MSG_SESSION_RESULT, .request_id = a->p.request_id};
     qmc_msg_job_result *res = &r.u.result;
-    res->job_id = s->id;
-    res->res = s->rep.res;
-    res->cv = s->rep.cv;
-    res->method_used = s->rep.method_used;
-    res->sampling = s->rep.sampling;
+    qmcd_result_of(res, s->id, &s->rep);
     res->seconds = s->compute_s;
     res->reference_kind = s->spec.has_exact ? 1 : 0;
     res->reference = s->spec.has_exact ? s->spec.exact : 0;
-    res->detail.ptr = s->rep.detail;
-    res->detail.len = (uint32_t)strnlen(s->rep.detail, sizeof s->rep.detail);
-    res->auto_reason.ptr = s->rep.auto_reason;
-    res->auto_reason.len = (uint32_t)strnlen(s->rep.auto_reason, sizeof s->rep.auto_reason);
     return qmcd_conn_send(c, &r);
 }
 
