@@ -53,6 +53,10 @@
 #                           and "0 passed, 1 failed" and exits 1.
 #   wait_nonempty FILE PID  10 ms steps, at most 2000, until FILE is
 #                           non-empty or PID has exited; the caller checks.
+#   release_fifo FIFO       opens FIFO for writing without waiting and
+#                           closes it, so that a qmcd stuck reading it (the
+#                           bug issue 22 found) gets EOF and moves on;
+#                           nothing when no reader has it open.
 #   pty_pair A B            a serial line for Modbus RTU: socat joins two
 #                           ptys linked at A and B (its log $tmp/socat.log),
 #                           sets $socat_pid (name it in term_vars) and waits
@@ -166,6 +170,14 @@ wait_ready() {
         if [ $e2e_i -gt 2000 ]; then echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1; fi
         sleep 0.01
     done
+}
+
+release_fifo() {
+    /usr/bin/python3 -c 'import os, sys
+try:
+    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
+except OSError:
+    pass' "$1"
 }
 
 pty_pair() {
