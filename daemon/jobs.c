@@ -43,6 +43,7 @@
 #include "modules.h"
 #include "peers.h"
 #include "pool.h"
+#include "result_msg.h"
 
 enum { CANCEL_NONE = 0, CANCEL_CLIENT, CANCEL_TIMEOUT, CANCEL_SHUTDOWN, CANCEL_GONE };
 
@@ -448,18 +449,10 @@ static int answer(qmcd_conn *c, job *j)
         srv->stats.jobs_done++;
         qmc_msg r = {.type = QMC_MSG_JOB_RESULT, .request_id = j->p.request_id};
         qmc_msg_job_result *res = &r.u.result;
-        res->job_id = j->id;
-        res->res = j->rep.res;
-        res->cv = j->rep.cv;
-        res->method_used = j->rep.method_used;
-        res->sampling = j->rep.sampling;
+        qmcd_result_of(res, j->id, &j->rep);
         res->seconds = j->seconds;
         res->reference_kind = j->reference_kind;
         res->reference = j->reference_kind ? j->reference : 0;
-        res->detail.ptr = j->rep.detail;
-        res->detail.len = (uint32_t)strnlen(j->rep.detail, sizeof j->rep.detail);
-        res->auto_reason.ptr = j->rep.auto_reason;
-        res->auto_reason.len = (uint32_t)strnlen(j->rep.auto_reason, sizeof j->rep.auto_reason);
         rc = qmcd_conn_send(c, &r);
     }
     if (rc == 0)

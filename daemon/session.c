@@ -35,6 +35,7 @@
 
 #include "log.h"
 #include "modules.h"
+#include "result_msg.h"
 #include "ring.h"
 #include "session.h"
 
@@ -157,18 +158,10 @@ static int send_end(qmcd_conn *c, qmcd_sess_attach *a)
     srv->stats.sessions_done++;
     qmc_msg r = {.type = QMC_MSG_SESSION_RESULT, .request_id = a->p.request_id};
     qmc_msg_job_result *res = &r.u.result;
-    res->job_id = s->id;
-    res->res = s->rep.res;
-    res->cv = s->rep.cv;
-    res->method_used = s->rep.method_used;
-    res->sampling = s->rep.sampling;
+    qmcd_result_of(res, s->id, &s->rep);
     res->seconds = s->compute_s;
     res->reference_kind = s->spec.has_exact ? 1 : 0;
     res->reference = s->spec.has_exact ? s->spec.exact : 0;
-    res->detail.ptr = s->rep.detail;
-    res->detail.len = (uint32_t)strnlen(s->rep.detail, sizeof s->rep.detail);
-    res->auto_reason.ptr = s->rep.auto_reason;
-    res->auto_reason.len = (uint32_t)strnlen(s->rep.auto_reason, sizeof s->rep.auto_reason);
     return qmcd_conn_send(c, &r);
 }
 
@@ -497,15 +490,24 @@ static int point_fits(qmcd_conn *c, uint64_t request_id, uint32_t dims)
     return 0;
 }
 
-/* The one answer for an unknown id, another identity and a wrong token. */
-static void no_session(qmcd_conn *c, uint64_t request_id, uint64_t id, const qmcd_identity *who)
+/* The session a SESSION_RESUME or SESSION_CLOSE names, if it is this
+ * client's (same identity, same token); else NULL, with the one answer for
+ * an unknown id, another identity and a wrong token already sent. */
+static qmcd_sess *named_session(qmcd_conn *c, const qmc_msg *m)
 {
+    const qmc_msg_session_ref *ref = &m->u.session_ref;
+    qmcd_identity who;
+    qmcd_conn_identity(c, &who);
+    qmcd_sess *s = qmcd__sessions_find(qmcd_conn_server(c), ref->session_id, &who, ref->token);
+    if (s)
+        return s;
     char peer[96];
-    qmcd_peer_key_name(&who->peer, peer, sizeof peer);
-    qmcd_conn_error(c, request_id, -ENOENT,
+    qmcd_peer_key_name(&who.peer, peer, sizeof peer);
+    qmcd_conn_error(c, m->request_id, -ENOENT,
                     "no session %llu for %s with that token (never opened, ended, expired "
-                    "after session-idle-timeout-ms, or another's)", (unsigned long long)id,
-                    peer);
+                    "after session-idle-timeout-ms, or another's)",
+                    (unsigned long long)ref->session_id, peer);
+    return NULL;
 }
 
 static qmcd_sess_attach *attach_new(qmcd_conn *c, qmcd_sess *s, uint64_t request_id)
@@ -775,13 +777,9 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     if (!version_ok(c, m->request_id, "SESSION_RESUME") ||
         !transport_ok(c, m->request_id, ref->transport))
         return;
-    qmcd_identity who;
-    qmcd_conn_identity(c, &who);
-    qmcd_sess *s = qmcd__sessions_find(srv, ref->session_id, &who, ref->token);
-    if (!s) {
-        no_session(c, m->request_id, ref->session_id, &who);
+    qmcd_sess *s = named_session(c, m);
+    if (!s)
         return;
-    }
     if (!point_fits(c, m->request_id, s->spec.dims))
         return;
     qmcd_sess_attach *old = s->a;
@@ -824,16 +822,11 @@ static void on_close(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
 {
     (void)fd;
     qmcd_server *srv = qmcd_conn_server(c);
-    const qmc_msg_session_ref *ref = &m->u.session_ref;
     if (!version_ok(c, m->request_id, "SESSION_CLOSE"))
         return;
-    qmcd_identity who;
-    qmcd_conn_identity(c, &who);
-    qmcd_sess *s = qmcd__sessions_find(srv, ref->session_id, &who, ref->token);
-    if (!s) {
-        no_session(c, m->request_id, ref->session_id, &who);
+    qmcd_sess *s = named_session(c, m);
+    if (!s)
         return;
-    }
     qmc_msg r;
     report_of(s, &r, m->request_id);
     qmcd_sess_attach *a = s->a;

@@ -68,6 +68,9 @@ int cli_write_all(FILE *f, const void *buf, size_t bytes, const char *what);
  * it is empty or does not fit in bytes. */
 int cli_list_next(const char **p, const char **item, size_t *len);
 int cli_list_copy(const char *item, size_t len, char *buf, size_t bytes);
+/* Copies src into dst (bytes long, at least 1) as a string, cut to
+ * bytes - 1 characters where it is longer: report texts into fixed fields. */
+void cli_copy_text(char *dst, size_t bytes, const char *src);
 /* Seconds on the monotonic clock: what every run's wall time is measured
  * by (differences only). */
 double cli_now_seconds(void);

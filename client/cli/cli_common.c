@@ -1,7 +1,7 @@
 /*
  * cli_common.c - what every qmc subcommand shares: error lines, number
- * parsing, the sequence options, checked writes, and the clock runs are
- * timed by.
+ * parsing, the sequence options, checked writes, the clock runs are timed
+ * by, list items and texts cut to fit a report's fields.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -226,4 +226,13 @@ int cli_list_copy(const char *item, size_t len, char *buf, size_t bytes)
     memcpy(buf, item, len);
     buf[len] = '\0';
     return 0;
+}
+
+void cli_copy_text(char *dst, size_t bytes, const char *src)
+{
+    size_t n = strlen(src);
+    if (n >= bytes)
+        n = bytes - 1;
+    memcpy(dst, src, n);
+    dst[n] = '\0';
 }

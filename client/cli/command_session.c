@@ -86,15 +86,6 @@ void cli_cmd_session_status(const cli_cmd_session *cs, qmc_session_report *out)
         memset(out, 0, sizeof *out);
 }
 
-static void copy_text(char *dst, size_t bytes, const char *src)
-{
-    size_t n = strlen(src);
-    if (n >= bytes)
-        n = bytes - 1;
-    memcpy(dst, src, n);
-    dst[n] = '\0';
-}
-
 int cli_cmd_session_result(const cli_cmd_session *cs, qmc_integrate_report *ir)
 {
     memset(ir, 0, sizeof *ir);
@@ -116,8 +107,8 @@ int cli_cmd_session_result(const cli_cmd_session *cs, qmc_integrate_report *ir)
         ir->res = r->res;
         ir->cv = r->cv;
         ir->method_used = r->method_used;
-        copy_text(ir->detail, sizeof ir->detail, r->detail);
-        copy_text(ir->auto_reason, sizeof ir->auto_reason, r->auto_reason);
+        cli_copy_text(ir->detail, sizeof ir->detail, r->detail);
+        cli_copy_text(ir->auto_reason, sizeof ir->auto_reason, r->auto_reason);
     }
     free(r);
     return rc;

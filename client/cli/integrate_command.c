@@ -241,15 +241,6 @@ static int run_batches(cmd_run *r)
     }
 }
 
-static void copy_text(char *dst, size_t bytes, const char *src)
-{
-    size_t n = strlen(src);
-    if (n >= bytes)
-        n = bytes - 1;
-    memcpy(dst, src, n);
-    dst[n] = '\0';
-}
-
 /* The session's answer: the report, or the part file. */
 static int print_answer(cmd_run *r, const cli_problem *p, double seconds)
 {
@@ -276,8 +267,8 @@ static int print_answer(cmd_run *r, const cli_problem *p, double seconds)
     rep.res = ir.res;
     rep.cv = ir.cv;
     rep.method = qmc_method_name(ir.method_used);
-    copy_text(rep.detail, sizeof rep.detail, ir.detail);
-    copy_text(rep.auto_reason, sizeof rep.auto_reason, ir.auto_reason);
+    cli_copy_text(rep.detail, sizeof rep.detail, ir.detail);
+    cli_copy_text(rep.auto_reason, sizeof rep.auto_reason, ir.auto_reason);
     cli_report_print(stdout, &rep, o->json);
     return 0;
 }

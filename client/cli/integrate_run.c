@@ -30,16 +30,6 @@ int cli_integrate_spec(const cli_integrate *o, qmc_integrate_spec *s)
     return 0;
 }
 
-/* Copies at most bytes - 1 characters and terminates. */
-static void copy_text(char *dst, size_t bytes, const char *src)
-{
-    size_t n = strlen(src);
-    if (n >= bytes)
-        n = bytes - 1;
-    memcpy(dst, src, n);
-    dst[n] = '\0';
-}
-
 static void report_init(const cli_integrate *o, const cli_problem *p, cli_report *rep)
 {
     memset(rep, 0, sizeof *rep);
@@ -66,8 +56,8 @@ int cli_integrate_run(const cli_integrate *o, const cli_problem *p, cli_report *
     rep->res = r.res;
     rep->cv = r.cv;
     rep->method = qmc_method_name(r.method_used);
-    copy_text(rep->detail, sizeof rep->detail, r.detail);
-    copy_text(rep->auto_reason, sizeof rep->auto_reason, r.auto_reason);
+    cli_copy_text(rep->detail, sizeof rep->detail, r.detail);
+    cli_copy_text(rep->auto_reason, sizeof rep->auto_reason, r.auto_reason);
     return 0;
 }
 
@@ -96,8 +86,8 @@ int cli_integrate_remote(const cli_integrate *o, const cli_problem *p, const cha
             rep->cv = r->cv;
             rep->method = qmc_method_name(r->method_used);
             rep->seconds = r->seconds;
-            copy_text(rep->detail, sizeof rep->detail, r->detail);
-            copy_text(rep->auto_reason, sizeof rep->auto_reason, r->auto_reason);
+            cli_copy_text(rep->detail, sizeof rep->detail, r->detail);
+            cli_copy_text(rep->auto_reason, sizeof rep->auto_reason, r->auto_reason);
         }
         free(r);
     }

@@ -151,6 +151,22 @@ static ssize_t send_with_fd(int fd, const uint8_t *buf, size_t n, int pass_fd)
     return sendmsg(fd, &mh, MSG_NOSIGNAL);
 }
 
+/* After a send that moved nothing (w <= 0, errno as the send left it):
+ * 0 to send again (interrupted, or the socket has room once more), or the
+ * error, with the connection broken and c->message naming what was sent. */
+static int send_stalled(qmc_client *c, ssize_t w, int64_t deadline, const char *what)
+{
+    int err = w < 0 ? errno : EPIPE;
+    if (err == EINTR)
+        return 0;
+    if (err == EAGAIN || err == EWOULDBLOCK)
+        err = -qmc__client_wait_fd(c->fd, POLLOUT, deadline);
+    if (err)
+        return qmc__client_break(c, -err, "sending %s: %s%s", what, qmc_strerror(-err),
+                                 err == ETIMEDOUT ? " (the server does not read)" : "");
+    return 0;
+}
+
 int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd)
 {
     /* An older server would take a newer field for a malformed frame and
@@ -184,15 +200,9 @@ int qmc__client_send_frame(qmc_client *c, const qmc_msg *msg, int pass_fd)
             done += (size_t)w;
             continue;
         }
-        int err = w < 0 ? errno : EPIPE;
-        if (err == EINTR)
-            continue;
-        if (err == EAGAIN || err == EWOULDBLOCK)
-            err = -qmc__client_wait_fd(c->fd, POLLOUT, deadline);
+        int err = send_stalled(c, w, deadline, qmc_msg_type_name(msg->type));
         if (err)
-            return qmc__client_break(c, -err, "sending %s: %s%s",
-                                     qmc_msg_type_name(msg->type), qmc_strerror(-err),
-                                     err == ETIMEDOUT ? " (the server does not read)" : "");
+            return err;
     }
     return 0;
 }
@@ -224,14 +234,9 @@ int qmc__client_send_parts(qmc_client *c, const void *head, size_t head_len, con
             done += (size_t)w;
             continue;
         }
-        int err = w < 0 ? errno : EPIPE;
-        if (err == EINTR)
-            continue;
-        if (err == EAGAIN || err == EWOULDBLOCK)
-            err = -qmc__client_wait_fd(c->fd, POLLOUT, deadline);
+        int err = send_stalled(c, w, deadline, what);
         if (err)
-            return qmc__client_break(c, -err, "sending %s: %s%s", what, qmc_strerror(-err),
-                                     err == ETIMEDOUT ? " (the server does not read)" : "");
+            return err;
     }
     return 0;
 }

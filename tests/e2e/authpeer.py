@@ -22,7 +22,6 @@ import hashlib
 import hmac
 import os
 import select
-import socket
 import struct
 import sys
 
@@ -48,14 +47,7 @@ def tcp_peer(addr, src="127.0.0.1"):
     """A Peer whose socket is bound to source address src first, so each
     scenario can fail from an address of its own (127.0.0.0/8 is all
     loopback)."""
-    host, port = addr[4:].rsplit(":", 1)
-    p = Peer.__new__(Peer)
-    p.s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    p.s.settimeout(15.0)
-    p.s.bind((src, 0))
-    p.s.connect((host, int(port)))
-    p.buf, p.next_id, p.info, p.ring = bytearray(), 100, None, None
-    return p
+    return Peer(addr, hello=False, src=src)
 
 
 def hello_frame(rid, vmin, vmax, name="authpeer"):

@@ -53,6 +53,15 @@
 #                           and "0 passed, 1 failed" and exits 1.
 #   wait_nonempty FILE PID  10 ms steps, at most 2000, until FILE is
 #                           non-empty or PID has exited; the caller checks.
+#   release_fifo FIFO       opens FIFO for writing without waiting and
+#                           closes it, so that a qmcd stuck reading it (the
+#                           bug issue 22 found) gets EOF and moves on;
+#                           nothing when no reader has it open.
+#   pty_pair A B            a serial line for Modbus RTU: socat joins two
+#                           ptys linked at A and B (its log $tmp/socat.log),
+#                           sets $socat_pid (name it in term_vars) and waits
+#                           in 10 ms steps, at most 2000, for both links;
+#                           else bad and returns 1.
 
 tmp=$(mktemp -d)
 pids=""
@@ -159,6 +168,28 @@ wait_ready() {
         fi
         e2e_i=$((e2e_i + 1))
         if [ $e2e_i -gt 2000 ]; then echo "FAIL: qmcd not ready"; echo "0 passed, 1 failed"; exit 1; fi
+        sleep 0.01
+    done
+}
+
+release_fifo() {
+    /usr/bin/python3 -c 'import os, sys
+try:
+    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
+except OSError:
+    pass' "$1"
+}
+
+pty_pair() {
+    socat pty,raw,echo=0,link="$1" pty,raw,echo=0,link="$2" 2> "$tmp/socat.log" &
+    socat_pid=$!
+    e2e_i=0
+    while [ ! -e "$1" ] || [ ! -e "$2" ]; do
+        e2e_i=$((e2e_i + 1))
+        if [ $e2e_i -gt 2000 ] || ! kill -0 $socat_pid 2>/dev/null; then
+            bad "socat pty pair not up: $(cat "$tmp/socat.log")"
+            return 1
+        fi
         sleep 0.01
     done
 }

@@ -233,7 +233,12 @@ def decode(mtype, p, version=NEWEST_VERSION):
 class Peer:
     version = NEWEST_VERSION  # the protocol version, once HELLO_OK chose it
 
-    def __init__(self, addr, timeout=15.0, hello=True, max_frame=16 << 20, version=1):
+    def __init__(self, addr, timeout=15.0, hello=True, max_frame=16 << 20, version=1,
+                 src=None):
+        """A connection to addr (unix:PATH or tcp:HOST:PORT), with HELLO sent
+        unless hello is False.  src: the TCP source address to bind first,
+        so that a scenario can speak from an address of its own (all of
+        127.0.0.0/8 is loopback)."""
         if addr.startswith("unix:"):
             self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             target = addr[5:]
@@ -244,6 +249,8 @@ class Peer:
             self.s = socket.socket(fam, socket.SOCK_STREAM)
             target = (host.strip("[]"), int(port))
         self.s.settimeout(timeout)
+        if src is not None:
+            self.s.bind((src, 0))
         self.s.connect(target)
         self.buf = bytearray()
         self.next_id = 100

@@ -13,7 +13,6 @@ why" lines.
 """
 import math
 import os
-import socket
 import struct
 import sys
 import time
@@ -368,15 +367,7 @@ def sc_resume(addr, src_other):
 def stranger(addr, src):
     """A peer of another identity: over TCP from another source address."""
     if addr.startswith("tcp:"):
-        host, port = addr[4:].rsplit(":", 1)
-        p = Peer.__new__(Peer)
-        p.s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        p.s.settimeout(15.0)
-        p.s.bind((src, 0))
-        p.s.connect((host, int(port)))
-        p.buf, p.next_id, p.info, p.ring = bytearray(), 100, None, None
-        p.info = p.hello(version=5)
-        return p
+        return Peer(addr, version=5, src=src)
     raise ValueError("a stranger needs a tcp: address")
 
 

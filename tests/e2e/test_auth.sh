@@ -48,16 +48,6 @@ peer() {
     grep -q '^ok ' "$tmp/peer.out" || bad "authpeer $1 printed no checks"
 }
 
-# release FIFO: opens FIFO for writing without waiting and closes it, so a
-# reader stuck on it (the bug) gets EOF and moves on; nothing otherwise.
-release() {
-    /usr/bin/python3 -c 'import os, sys
-try:
-    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
-except OSError:
-    pass' "$1"
-}
-
 umask 077
 mkfifo "$tmp/fifo"
 mkdir "$tmp/dir"
@@ -88,7 +78,7 @@ for k in open short fifo dir; do
     timeout -k 5 30 "$QMCD" --foreground --listen "unix:$tmp/x.sock" --auth-key "$tmp/$k" \
         --ready-file "$tmp/r2" 2> "$tmp/err" > /dev/null
     rc=$?
-    release "$tmp/fifo"
+    release_fifo "$tmp/fifo"
     if [ $rc -eq 2 ] && [ ! -e "$tmp/r2" ] && [ ! -e "$tmp/x.sock" ] &&
         grep -q "auth-key $tmp/$k" "$tmp/err" && [ "$(wc -l < "$tmp/err")" -eq 1 ]; then ok; else
         bad "key file $k accepted: rc $rc, $(cat "$tmp/err")"; fi
@@ -130,10 +120,10 @@ expect_fail "client key file 0644" "chmod 600" \
     "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/open"
 expect_fail "client key file a FIFO" "auth key $tmp/fifo: is a FIFO, not a regular file" \
     timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/fifo"
-release "$tmp/fifo"
+release_fifo "$tmp/fifo"
 expect_fail "QMC_AUTH_KEY_FILE a FIFO" "is a FIFO" \
     env QMC_AUTH_KEY_FILE="$tmp/fifo" timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1
-release "$tmp/fifo"
+release_fifo "$tmp/fifo"
 if "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key" > /dev/null 2> "$tmp/err"; then
     ok; else bad "--auth-key: $(cat "$tmp/err")"; fi
 if QMC_AUTH_KEY_FILE="$tmp/key" "$QMC" stats --connect "$TCP" > "$tmp/stats" 2> "$tmp/err" &&
@@ -203,7 +193,7 @@ then ok; else bad "SIGHUP with a FIFO key: $(tail -n 2 "$tmp/qmcd.log")"; fi
 if timeout -k 5 30 "$QMC" ping --connect "$TCP" --count 1 --auth-key "$tmp/key.saved" \
     > /dev/null 2> "$tmp/err"; then ok
 else bad "PING after SIGHUP with a FIFO key: $(cat "$tmp/err")"; fi
-release "$tmp/key"
+release_fifo "$tmp/key"
 rm -f "$tmp/key"
 mv "$tmp/key.saved" "$tmp/key"
 cp "$tmp/key2" "$tmp/key"

@@ -79,16 +79,6 @@ if "$QMCD" --check-config --config "$EXAMPLE" --listen "unix:$tmp/never.sock" > 
 else bad "--check-config created its listener"; fi
 
 # ---- files that are not regular files ------------------------------------
-# release FIFO: opens FIFO for writing without waiting and closes it, so a
-# qmcd stuck reading it (the bug) gets EOF and moves on; nothing when no
-# reader has it open.
-release() {
-    /usr/bin/python3 -c 'import os, sys
-try:
-    os.close(os.open(sys.argv[1], os.O_WRONLY | os.O_NONBLOCK))
-except OSError:
-    pass' "$1"
-}
 printf 'threads = 1\n' > "$tmp/plain.conf"
 mkfifo "$tmp/fifo.conf" "$tmp/fifo.key"
 mkdir "$tmp/dir.conf"
@@ -110,7 +100,7 @@ if [ "$(id -u)" -eq 0 ] && mknod -m 600 "$tmp/chr" c 1 3 2>/dev/null; then
 else
     echo "skip: device files (needs root to make one)"
 fi
-release "$tmp/fifo.conf"; release "$tmp/fifo.key"
+release_fifo "$tmp/fifo.conf"; release_fifo "$tmp/fifo.key"
 # At start (not --check-config), before and after the signals are blocked:
 # exit 2, one line, nothing bound.
 for how in "--config $tmp/fifo.conf" "--config $tmp/plain.conf --auth-key $tmp/fifo.key"; do
@@ -118,7 +108,7 @@ for how in "--config $tmp/fifo.conf" "--config $tmp/plain.conf --auth-key $tmp/f
     timeout -k 5 30 "$QMCD" --foreground $how --listen "unix:$tmp/start.sock" \
         --ready-file "$tmp/start.ready" > "$tmp/out" 2> "$tmp/err"
     st=$?
-    release "$tmp/fifo.conf"; release "$tmp/fifo.key"
+    release_fifo "$tmp/fifo.conf"; release_fifo "$tmp/fifo.key"
     if [ $st -eq 2 ] && [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q 'is a FIFO' "$tmp/err" &&
         [ ! -e "$tmp/start.sock" ] && [ ! -e "$tmp/start.ready" ]; then ok
     else bad "start with $how: exit $st, $(cat "$tmp/err")"; fi
@@ -145,7 +135,7 @@ if start live --config "$tmp/live.conf" --listen "unix:$tmp/live.sock"; then
     st=$?
     if [ $st -eq 0 ] && grep -q '1234 points a request' "$tmp/out"; then ok
     else bad "PING after SIGHUP with a FIFO config: exit $st, $(cat "$tmp/out" "$tmp/err")"; fi
-    release "$tmp/live.conf"
+    release_fifo "$tmp/live.conf"
     rm -f "$tmp/live.conf"
     printf 'max-points = 4321\n' > "$tmp/live.conf"
     kill -HUP "$live"

@@ -63,16 +63,7 @@ for args in "--modbus rtu:$tmp/tty:19200:E:8:1:248" "--modbus rtu:$tmp/tty:19200
 done
 
 # ---- 1. the serial line: a socat pty pair ----------------------------------
-socat pty,raw,echo=0,link="$tmp/ttyq" pty,raw,echo=0,link="$tmp/ttyc" 2> "$tmp/socat.log" &
-socat_pid=$!
-i=0
-while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
-    i=$((i + 1))
-    if [ $i -gt 2000 ] || ! kill -0 $socat_pid 2>/dev/null; then
-        echo "FAIL: socat pty pair not up"; cat "$tmp/socat.log"; echo "0 passed, 1 failed"; exit 1
-    fi
-    sleep 0.01
-done
+pty_pair "$tmp/ttyq" "$tmp/ttyc" || finish
 
 # RS-485 mode on a line whose driver cannot switch direction (a pty): one
 # line naming the problem, before anything is served.

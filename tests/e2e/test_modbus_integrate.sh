@@ -96,16 +96,7 @@ check "idle banks dropped with their sessions: $(grep 'modbus_sessions \|integra
 stop
 
 # ---- 5. a serial line ------------------------------------------------------------
-socat pty,raw,echo=0,link="$tmp/ttyq" pty,raw,echo=0,link="$tmp/ttyc" 2> "$tmp/socat.log" &
-socat_pid=$!
-i=0
-while [ ! -e "$tmp/ttyq" ] || [ ! -e "$tmp/ttyc" ]; do
-    i=$((i + 1))
-    if [ $i -gt 2000 ] || ! kill -0 $socat_pid 2>/dev/null; then
-        bad "socat pty pair not up: $(cat "$tmp/socat.log")"; finish
-    fi
-    sleep 0.01
-done
+pty_pair "$tmp/ttyq" "$tmp/ttyc" || finish
 "$QMCD" --foreground --listen "unix:$tmp/d.sock" --modbus "rtu:$tmp/ttyq:19200:N:8:1:5" \
     --ready-file "$tmp/d.ready" 2> "$tmp/d.log" &
 pid=$!

@@ -1,7 +1,8 @@
 /*
  * modbus_device.h - a Modbus master and a measuring device in the unit
- * tests of the integration block (test_modbus_integrate*.c): request PDUs
- * built from the Modbus application protocol spec (v1.1b3, section 6), and
+ * tests (test_modbus.c, and the integration block's
+ * test_modbus_integrate*.c): request PDUs built from the Modbus
+ * application protocol spec (v1.1b3, section 6), and
  * a device loop that reads each point from the status block, evaluates f
  * there and writes the value with its request number, as
  * protocol/MODBUS.md section 9 tells a device to.  Written from the spec

@@ -45,13 +45,69 @@ void session_test_spec(qmc_session_spec *ss, const qmc_integrate_spec *is, const
 }
 
 
-/* Answers every batch with f until the session is done. */
-void session_test_drive(qmc_session *s, const qmc_integrand *f, outcome *o)
+void session_test_method(qmc_integrate_spec *is, const char *method)
 {
-    double *vals = NULL;
-    size_t cap = 0;
-    o->batches = o->largest = 0;
-    uint64_t seq0 = 0;
+    qmc_integrate_spec_init(is);
+    assert_int_equal(qmc_method_parse(method, &is->method), 0);
+    qmc_sampler sm;
+    if (qmc_sampler_parse(method, &sm) == 0)
+        qmc_sampling_spec_init(&is->sampling, sm);
+}
+
+qmc_session *session_test_open(qmc_session_spec *ss, const qmc_integrate_spec *is,
+                               const qmc_integrand *f, uint64_t max_batch)
+{
+    session_test_spec(ss, is, f);
+    ss->max_batch = max_batch;
+    qmc_session *s = NULL;
+    char why[256];
+    int err = qmc_session_new(ss, &s, why, sizeof why);
+    if (err)
+        print_error("open: %s\n", why);
+    assert_int_equal(err, 0);
+    assert_non_null(s);
+    return s;
+}
+
+void session_test_tell(qmc_session *s, const qmc_integrand *f, const qmc_session_batch *b,
+                       answer_buf *buf)
+{
+    if (b->count > buf->cap) {
+        buf->cap = b->count;
+        buf->vals = realloc(buf->vals, buf->cap * sizeof *buf->vals);
+        assert_non_null(buf->vals);
+    }
+    f->eval(f->ctx, b->points, b->count, b->dims, buf->vals);
+    char why[256];
+    int err = qmc_session_tell(s, b->seq, buf->vals, b->count, why, sizeof why);
+    if (err)
+        print_error("tell: %s\n", why);
+    assert_int_equal(err, 0);
+}
+
+size_t session_test_answer(qmc_session *s, const qmc_integrand *f, qmc_session_batch *b,
+                           answer_buf *buf)
+{
+    assert_int_equal(qmc_session_ask(s, b), 0);
+    if (b->count)
+        session_test_tell(s, f, b, buf);
+    return b->count;
+}
+
+outcome session_test_outcome(qmc_session *s)
+{
+    outcome o;
+    memset(&o, 0, sizeof o);
+    o.err = qmc_session_result(s, &o.rep, o.why, sizeof o.why);
+    qmc_session_status(s, &o.status);
+    return o;
+}
+
+/* Answers every batch with f until the session is done. */
+outcome session_test_drive(qmc_session *s, const qmc_integrand *f)
+{
+    answer_buf buf = {NULL, 0};
+    uint64_t batches = 0, largest = 0, seq0 = 0;
     for (;;) {
         qmc_session_batch b;
         assert_int_equal(qmc_session_ask(s, &b), 0);
@@ -60,29 +116,22 @@ void session_test_drive(qmc_session *s, const qmc_integrand *f, outcome *o)
             break;
         }
         assert_int_equal(b.end, QMC_SESSION_RUNNING);
-        if (o->batches == 0)
+        if (batches == 0)
             seq0 = b.seq;
-        assert_int_equal(b.seq, seq0 + o->batches); /* numbered in order */
+        assert_int_equal(b.seq, seq0 + batches); /* numbered in order */
         assert_int_equal(b.dims, f->dims);
-        if (b.count > cap) {
-            cap = b.count;
-            vals = realloc(vals, cap * sizeof *vals);
-            assert_non_null(vals);
-        }
-        f->eval(f->ctx, b.points, b.count, b.dims, vals);
-        char why[256];
-        int err = qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why);
-        if (err)
-            fail_msg("tell: %s", why);
-        o->batches++;
-        o->largest = b.count > o->largest ? b.count : o->largest;
+        session_test_tell(s, f, &b, &buf);
+        batches++;
+        largest = b.count > largest ? b.count : largest;
     }
-    free(vals);
-    o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
-    qmc_session_status(s, &o->status);
+    free(buf.vals);
+    outcome o = session_test_outcome(s);
+    o.batches = batches;
+    o.largest = largest;
     qmc_session_batch done;
     assert_int_equal(qmc_session_ask(s, &done), 0);
-    assert_int_equal(done.end, o->status.end);
+    assert_int_equal(done.end, o.status.end);
+    return o;
 }
 
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f)
@@ -93,7 +142,7 @@ outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand
     o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
     if (o.err)
         return o;
-    session_test_drive(s, f, &o);
+    o = session_test_drive(s, f);
     qmc_session_free(s);
     return o;
 }

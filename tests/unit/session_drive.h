@@ -26,6 +26,33 @@ problem session_test_make(const char *name, uint32_t dims, const double *a, cons
 void session_test_spec(qmc_session_spec *ss, const qmc_integrate_spec *is,
                        const qmc_integrand *f);
 
+/* is set up for method (a name qmc_method_parse knows; the test fails on
+ * any other), with its sampler's defaults where the method samples. */
+void session_test_method(qmc_integrate_spec *is, const char *method);
+
+/* Opens a session on is and f (session_test_spec, then max_batch, 0 for
+ * the default) and leaves its spec in ss; fails the test, with the
+ * session's reason, when it will not open. */
+qmc_session *session_test_open(qmc_session_spec *ss, const qmc_integrate_spec *is,
+                               const qmc_integrand *f, uint64_t max_batch);
+
+/* A caller's buffer for a batch's values, grown to the largest batch it
+ * answers (vals NULL and cap 0 to start; the caller frees vals). */
+typedef struct answer_buf {
+    double *vals;
+    size_t cap;
+} answer_buf;
+
+/* Evaluates f on b's points into buf and tells s; fails the test, with the
+ * session's reason, when the tell is refused. */
+void session_test_tell(qmc_session *s, const qmc_integrand *f, const qmc_session_batch *b,
+                       answer_buf *buf);
+
+/* Asks s for its batch (into b) and, unless it is empty, answers it with
+ * f; returns the batch's count, 0 once the session is done. */
+size_t session_test_answer(qmc_session *s, const qmc_integrand *f, qmc_session_batch *b,
+                           answer_buf *buf);
+
 typedef struct outcome {
     int err;
     qmc_integrate_report rep;
@@ -34,9 +61,12 @@ typedef struct outcome {
     uint64_t batches, largest;
 } outcome;
 
+/* The session's result and status as they stand (batches and largest 0). */
+outcome session_test_outcome(qmc_session *s);
+
 /* Answers every batch of s with f until it is done, checking the batch
  * numbers and the end reason, then takes the result and the status. */
-void session_test_drive(qmc_session *s, const qmc_integrand *f, outcome *o);
+outcome session_test_drive(qmc_session *s, const qmc_integrand *f);
 
 /* Opens a session on ss, drives it with f and frees it. */
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f);

@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "modbus_device.h"
 #include "qmc/modbus.h"
 #include "qmc/seq.h"
 
@@ -52,12 +53,9 @@ void *aligned_alloc(size_t alignment, size_t bytes)
 }
 #endif
 
-/* ---- request builders ----------------------------------------------------- */
+/* ---- request builders: modbus_device.c's master, with this file's env ---- */
 
-typedef struct reply {
-    uint8_t b[QMC_MODBUS_MAX_PDU];
-    int n;
-} reply;
+typedef mb_reply reply;
 
 static qmc_modbus_env env = {
     .uptime_s = 77, .requests = 1234, .exceptions = 5, .conns_accepted = 9,
@@ -66,63 +64,28 @@ static qmc_modbus_env env = {
 
 static reply call(qmc_modbus_session *s, const uint8_t *req, size_t n)
 {
-    reply r;
-    memset(&r, 0xEE, sizeof r);
-    r.n = qmc_modbus_handle(s, &env, req, n, r.b, sizeof r.b);
-    assert_true(r.n > 0);
-    return r;
+    return mb_call(s, &env, req, n);
 }
 
 static reply read_regs(qmc_modbus_session *s, uint8_t fc, unsigned addr, unsigned count)
 {
-    uint8_t q[5] = {fc, (uint8_t)(addr >> 8), (uint8_t)addr, (uint8_t)(count >> 8),
-                    (uint8_t)count};
-    return call(s, q, sizeof q);
+    return mb_read(s, &env, fc, addr, count);
 }
 
 static reply write_single(qmc_modbus_session *s, unsigned addr, unsigned v)
 {
-    uint8_t q[5] = {0x06, (uint8_t)(addr >> 8), (uint8_t)addr, (uint8_t)(v >> 8), (uint8_t)v};
-    return call(s, q, sizeof q);
+    return mb_write1(s, &env, addr, v);
 }
 
 static reply write_multi(qmc_modbus_session *s, unsigned addr, const uint16_t *v, unsigned n)
 {
-    uint8_t q[QMC_MODBUS_MAX_PDU];
-    q[0] = 0x10;
-    q[1] = (uint8_t)(addr >> 8), q[2] = (uint8_t)addr;
-    q[3] = (uint8_t)(n >> 8), q[4] = (uint8_t)n;
-    q[5] = (uint8_t)(2 * n);
-    for (unsigned i = 0; i < n; i++)
-        q[6 + 2 * i] = (uint8_t)(v[i] >> 8), q[7 + 2 * i] = (uint8_t)v[i];
-    return call(s, q, 6 + 2 * (size_t)n);
+    return mb_write(s, &env, addr, v, n);
 }
 
 static reply read_write(qmc_modbus_session *s, unsigned raddr, unsigned rn, unsigned waddr,
                         const uint16_t *v, unsigned wn)
 {
-    uint8_t q[QMC_MODBUS_MAX_PDU];
-    q[0] = 0x17;
-    q[1] = (uint8_t)(raddr >> 8), q[2] = (uint8_t)raddr;
-    q[3] = (uint8_t)(rn >> 8), q[4] = (uint8_t)rn;
-    q[5] = (uint8_t)(waddr >> 8), q[6] = (uint8_t)waddr;
-    q[7] = (uint8_t)(wn >> 8), q[8] = (uint8_t)wn;
-    q[9] = (uint8_t)(2 * wn);
-    for (unsigned i = 0; i < wn; i++)
-        q[10 + 2 * i] = (uint8_t)(v[i] >> 8), q[11 + 2 * i] = (uint8_t)v[i];
-    return call(s, q, 10 + 2 * (size_t)wn);
-}
-
-static uint16_t reg(const reply *r, unsigned i)
-{
-    return (uint16_t)(r->b[2 + 2 * i] << 8 | r->b[3 + 2 * i]);
-}
-
-static void assert_exception(const reply *r, uint8_t fc, uint8_t code)
-{
-    assert_int_equal(r->n, 2);
-    assert_int_equal(r->b[0], fc | 0x80);
-    assert_int_equal(r->b[1], code);
+    return mb_read_write(s, &env, raddr, rn, waddr, v, wn);
 }
 
 /* The holding registers 0..12 as one snapshot. */
@@ -131,7 +94,7 @@ static void holding(qmc_modbus_session *s, uint16_t out[13])
     reply r = read_regs(s, 0x03, 0, 13);
     assert_int_equal(r.n, 2 + 26);
     for (unsigned i = 0; i < 13; i++)
-        out[i] = reg(&r, i);
+        out[i] = mb_reg(&r, i);
 }
 
 static qmc_modbus_session *fresh(void)
@@ -156,8 +119,8 @@ static void test_defaults(void **state)
     reply r = read_regs(s, 0x04, 0, 6);
     assert_int_equal(r.b[0], 0x04);
     assert_int_equal(r.b[1], 12);
-    assert_int_equal(reg(&r, 0), 0);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
+    assert_int_equal(mb_reg(&r, 0), 0);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
     qmc_modbus_session_free(s);
     qmc_modbus_session_free(NULL);
 }
@@ -176,14 +139,14 @@ static void test_fc06_trigger_sobol_float32(void **state)
     assert_int_equal(r.n, 2 + 20);
     const uint16_t want[10] = {7, 0, 0, 0, 0, 2, 0x3E80, 0x0000, 0x3F40, 0x0000};
     for (unsigned i = 0; i < 10; i++)
-        assert_int_equal(reg(&r, i), want[i]);
+        assert_int_equal(mb_reg(&r, i), want[i]);
     /* The same block as holding registers 100... */
     reply h = read_regs(s, 0x03, 100, 10);
     assert_memory_equal(h.b + 2, r.b + 2, 20);
     /* Coordinates past dims read 0; the block ends at 69. */
     r = read_regs(s, 0x04, 10, 60);
     for (unsigned i = 0; i < 60; i++)
-        assert_int_equal(reg(&r, i), 0);
+        assert_int_equal(mb_reg(&r, i), 0);
     qmc_modbus_session_free(s);
 }
 
@@ -199,25 +162,25 @@ static void test_formats_and_word_order(void **state)
     assert_int_equal(r.n, 5);
     assert_memory_equal(r.b, ((uint8_t[]){0x10, 0, 0, 0, 13}), 5);
     r = read_regs(s, 0x04, 0, 10);
-    assert_int_equal(reg(&r, 1), 0);
+    assert_int_equal(mb_reg(&r, 1), 0);
     /* 1/4 * 2^32 = 0x40000000; floor(2/3 * 2^32) = 0xAAAAAAAA. */
-    assert_int_equal(reg(&r, 6), 0x0000);
-    assert_int_equal(reg(&r, 7), 0x4000);
-    assert_int_equal(reg(&r, 8), 0xAAAA);
-    assert_int_equal(reg(&r, 9), 0xAAAA);
+    assert_int_equal(mb_reg(&r, 6), 0x0000);
+    assert_int_equal(mb_reg(&r, 7), 0x4000);
+    assert_int_equal(mb_reg(&r, 8), 0xAAAA);
+    assert_int_equal(mb_reg(&r, 9), 0xAAAA);
     /* u16: floor(x * 65536), one register per coordinate. */
     const uint16_t w2[6] = {1, 0, 0, 0, 2, 2}; /* format u16 ... request 2 */
     r = write_multi(s, 5, w2, 6);
     r = read_regs(s, 0x04, 0, 8);
-    assert_int_equal(reg(&r, 0), 2);
-    assert_int_equal(reg(&r, 6), 0x4000);
-    assert_int_equal(reg(&r, 7), 0xAAAA);
+    assert_int_equal(mb_reg(&r, 0), 2);
+    assert_int_equal(mb_reg(&r, 6), 0x4000);
+    assert_int_equal(mb_reg(&r, 7), 0xAAAA);
     /* float32, high word first: 0.25 = 0x3E800000. */
     const uint16_t w3[8] = {0, 0, 0, 0, 2, 3, 0, 0};
     r = write_multi(s, 5, w3, 8);
     r = read_regs(s, 0x04, 6, 2);
-    assert_int_equal(reg(&r, 0), 0x3E80);
-    assert_int_equal(reg(&r, 1), 0x0000);
+    assert_int_equal(mb_reg(&r, 0), 0x3E80);
+    assert_int_equal(mb_reg(&r, 1), 0x0000);
     qmc_modbus_session_free(s);
 }
 
@@ -246,13 +209,13 @@ static void test_scrambled_matches_core(void **state)
         qmc_seq *q = NULL;
         assert_int_equal(qmc_seq_new(&spec, &q), 0);
         r = read_regs(s, 0x04, 0, 70);
-        assert_int_equal(reg(&r, 1), 0);
-        assert_int_equal(reg(&r, 5), 1000);
+        assert_int_equal(mb_reg(&r, 1), 0);
+        assert_int_equal(mb_reg(&r, 5), 1000);
         for (uint32_t j = 0; j < 32; j++) {
             double x;
             assert_int_equal(qmc_seq_at(q, 1000, j, &x), 0);
             uint32_t u = (uint32_t)ldexp(x, 32); /* exact: x has <= 53 bits */
-            uint32_t got = (uint32_t)reg(&r, 6 + 2 * j) << 16 | reg(&r, 7 + 2 * j);
+            uint32_t got = (uint32_t)mb_reg(&r, 6 + 2 * j) << 16 | mb_reg(&r, 7 + 2 * j);
             assert_int_equal(got, u);
         }
         qmc_seq_free(q);
@@ -268,7 +231,7 @@ static void test_idempotent_and_auto_advance(void **state)
     write_single(s, QMC_MODBUS_HR_AUTO_ADVANCE, 1);
     write_single(s, QMC_MODBUS_HR_REQUEST, 1);
     reply r = read_regs(s, 0x04, 0, 8);
-    assert_int_equal(reg(&r, 5), 0); /* point 0 */
+    assert_int_equal(mb_reg(&r, 5), 0); /* point 0 */
     uint16_t hr[13];
     holding(s, hr);
     assert_int_equal(hr[9], 1); /* next index */
@@ -278,15 +241,15 @@ static void test_idempotent_and_auto_advance(void **state)
     holding(s, hr);
     assert_int_equal(hr[9], 1);
     r = read_regs(s, 0x04, 0, 8);
-    assert_int_equal(reg(&r, 0), 1);
-    assert_int_equal(reg(&r, 5), 0);
+    assert_int_equal(mb_reg(&r, 0), 1);
+    assert_int_equal(mb_reg(&r, 5), 0);
     /* Request 2: point 1 = (1/2, 1/2). */
     write_single(s, QMC_MODBUS_HR_REQUEST, 2);
     r = read_regs(s, 0x04, 0, 10);
-    assert_int_equal(reg(&r, 0), 2);
-    assert_int_equal(reg(&r, 5), 1);
-    assert_int_equal(reg(&r, 6), 0x3F00);
-    assert_int_equal(reg(&r, 8), 0x3F00);
+    assert_int_equal(mb_reg(&r, 0), 2);
+    assert_int_equal(mb_reg(&r, 5), 1);
+    assert_int_equal(mb_reg(&r, 6), 0x3F00);
+    assert_int_equal(mb_reg(&r, 8), 0x3F00);
     holding(s, hr);
     assert_int_equal(hr[9], 2);
     qmc_modbus_session_free(s);
@@ -306,11 +269,11 @@ static void test_fc23_one_transaction(void **state)
     /* Sobol index 3 = (3/4, 1/4). */
     const uint16_t want[10] = {9, 0, 0, 0, 0, 3, 0x3F40, 0, 0x3E80, 0};
     for (unsigned i = 0; i < 10; i++)
-        assert_int_equal(reg(&r, i), want[i]);
+        assert_int_equal(mb_reg(&r, i), want[i]);
     /* A refused read stores nothing of the write. */
     const uint16_t w2[5] = {0, 0, 0, 5, 10};
     r = read_write(s, 50, 2, 6, w2, 5);
-    assert_exception(&r, 0x17, QMC_MODBUS_EX_ILLEGAL_ADDRESS);
+    mb_assert_exception(&r, 0x17, QMC_MODBUS_EX_ILLEGAL_ADDRESS);
     uint16_t hr[13];
     holding(s, hr);
     assert_int_equal(hr[9], 3);
@@ -326,28 +289,28 @@ static void test_status_codes(void **state)
     write_single(s, QMC_MODBUS_HR_SCRAMBLE, QMC_MODBUS_SCRAMBLE_FAURE);
     write_single(s, QMC_MODBUS_HR_REQUEST, 1);
     reply r = read_regs(s, 0x04, 0, 8);
-    assert_int_equal(reg(&r, 0), 1);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_BAD_SPEC);
-    assert_int_equal(reg(&r, 6), 0);
+    assert_int_equal(mb_reg(&r, 0), 1);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_BAD_SPEC);
+    assert_int_equal(mb_reg(&r, 6), 0);
     /* Index 2^32: past the end. */
     write_single(s, QMC_MODBUS_HR_SCRAMBLE, 0);
     const uint16_t idx[5] = {0, 1, 0, 0, 2};
     write_multi(s, 6, idx, 5);
     r = read_regs(s, 0x04, 0, 6);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_BAD_INDEX);
-    assert_int_equal(reg(&r, 3), 1);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_BAD_INDEX);
+    assert_int_equal(mb_reg(&r, 3), 1);
     /* The last valid index works. */
     const uint16_t last[5] = {0, 0, 0xFFFF, 0xFFFF, 3};
     write_multi(s, 6, last, 5);
     r = read_regs(s, 0x04, 0, 6);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_OK);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_OK);
     /* halton + fast-owen (a base-2 scramble): refused by the core too. */
     write_single(s, QMC_MODBUS_HR_KIND, QMC_MODBUS_KIND_HALTON);
     write_single(s, QMC_MODBUS_HR_SCRAMBLE, QMC_MODBUS_SCRAMBLE_FAST_OWEN);
     write_single(s, QMC_MODBUS_HR_REQUEST, 4);
     r = read_regs(s, 0x04, 0, 6);
-    assert_int_equal(reg(&r, 0), 4);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_BAD_SPEC);
+    assert_int_equal(mb_reg(&r, 0), 4);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_BAD_SPEC);
     assert_string_equal(qmc_modbus_status_name(QMC_MODBUS_STATUS_BAD_INDEX),
                         "index past the end of the sequence (2^32)");
     assert_string_equal(qmc_modbus_status_name(99), "");
@@ -364,7 +327,7 @@ static void test_counters(void **state)
     for (unsigned c = 0; c < 6; c++) {
         uint64_t v = 0;
         for (unsigned k = 0; k < 4; k++)
-            v = v << 16 | reg(&r, 4 * c + k);
+            v = v << 16 | mb_reg(&r, 4 * c + k);
         assert_int_equal(v, want[c]);
     }
     /* With no env the counters read 0. */
@@ -390,7 +353,7 @@ static void test_fc17_report_server_id(void **state)
     assert_memory_equal(r.b + 4, text, sizeof text - 1);
     uint8_t long_q[2] = {0x11, 0};
     r = call(s, long_q, 2);
-    assert_exception(&r, 0x11, QMC_MODBUS_EX_ILLEGAL_VALUE);
+    mb_assert_exception(&r, 0x11, QMC_MODBUS_EX_ILLEGAL_VALUE);
     qmc_modbus_session_free(s);
 }
 
@@ -421,16 +384,16 @@ static void test_fc43_device_id(void **state)
     assert_int_equal(r.b[7], 1);
     const uint8_t none[4] = {0x2B, 0x0E, 0x04, 0x03};
     r = call(s, none, 4);
-    assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_ADDRESS);
+    mb_assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_ADDRESS);
     const uint8_t bad_code[4] = {0x2B, 0x0E, 0x05, 0x00};
     r = call(s, bad_code, 4);
-    assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_VALUE);
+    mb_assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_VALUE);
     const uint8_t canopen[4] = {0x2B, 0x0D, 0x01, 0x00};
     r = call(s, canopen, 4);
-    assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_FUNCTION);
+    mb_assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_FUNCTION);
     const uint8_t short_q[3] = {0x2B, 0x0E, 0x01};
     r = call(s, short_q, 3);
-    assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_VALUE);
+    mb_assert_exception(&r, 0x2B, QMC_MODBUS_EX_ILLEGAL_VALUE);
     qmc_modbus_session_free(s);
 }
 
@@ -445,7 +408,7 @@ static void test_ex01_illegal_function(void **state)
             continue;
         uint8_t q[5] = {(uint8_t)fc, 0, 0, 0, 1};
         reply r = call(s, q, 5);
-        assert_exception(&r, (uint8_t)fc, QMC_MODBUS_EX_ILLEGAL_FUNCTION);
+        mb_assert_exception(&r, (uint8_t)fc, QMC_MODBUS_EX_ILLEGAL_FUNCTION);
     }
     assert_string_equal(qmc_modbus_exception_name(1), "function code not served");
     qmc_modbus_session_free(s);
@@ -457,26 +420,26 @@ static void test_ex02_illegal_address(void **state)
     (void)state;
     qmc_modbus_session *s = fresh();
     reply r = read_regs(s, 0x03, 13, 1);
-    assert_exception(&r, 0x03, 2);
+    mb_assert_exception(&r, 0x03, 2);
     r = read_regs(s, 0x03, 170, 1);
-    assert_exception(&r, 0x03, 2);
+    mb_assert_exception(&r, 0x03, 2);
     r = read_regs(s, 0x04, 70, 1);
-    assert_exception(&r, 0x04, 2);
+    mb_assert_exception(&r, 0x04, 2);
     r = read_regs(s, 0x04, 224, 1);
-    assert_exception(&r, 0x04, 2);
+    mb_assert_exception(&r, 0x04, 2);
     r = read_regs(s, 0x04, 0xFFFF, 1);
-    assert_exception(&r, 0x04, 2);
+    mb_assert_exception(&r, 0x04, 2);
     r = write_single(s, 100, 1);
-    assert_exception(&r, 0x06, 2);
+    mb_assert_exception(&r, 0x06, 2);
     r = write_single(s, 13, 1);
-    assert_exception(&r, 0x06, 2);
+    mb_assert_exception(&r, 0x06, 2);
     const uint16_t v[2] = {1, 1};
     r = write_multi(s, 12, v, 2); /* runs past register 12 */
-    assert_exception(&r, 0x10, 2);
+    mb_assert_exception(&r, 0x10, 2);
     r = write_multi(s, 105, v, 2);
-    assert_exception(&r, 0x10, 2);
+    mb_assert_exception(&r, 0x10, 2);
     r = read_write(s, 100, 1, 120, v, 1);
-    assert_exception(&r, 0x17, 2);
+    mb_assert_exception(&r, 0x17, 2);
     qmc_modbus_session_free(s);
 }
 
@@ -489,76 +452,76 @@ static void test_ex03_illegal_value(void **state)
     uint16_t before[13], after[13];
     holding(s, before);
     reply r = read_regs(s, 0x03, 0, 0);
-    assert_exception(&r, 0x03, 3);
+    mb_assert_exception(&r, 0x03, 3);
     r = read_regs(s, 0x04, 0, 126);
-    assert_exception(&r, 0x04, 3);
+    mb_assert_exception(&r, 0x04, 3);
     r = read_regs(s, 0x03, 0, 14); /* past register 12 */
-    assert_exception(&r, 0x03, 3);
+    mb_assert_exception(&r, 0x03, 3);
     r = read_regs(s, 0x03, 160, 11); /* past the result block */
-    assert_exception(&r, 0x03, 3);
+    mb_assert_exception(&r, 0x03, 3);
     r = read_regs(s, 0x04, 60, 11);
-    assert_exception(&r, 0x04, 3);
+    mb_assert_exception(&r, 0x04, 3);
     r = read_regs(s, 0x04, 220, 5);
-    assert_exception(&r, 0x04, 3);
+    mb_assert_exception(&r, 0x04, 3);
     r = write_single(s, QMC_MODBUS_HR_DIMS, 33);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_DIMS, 0);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_KIND, 9);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_SCRAMBLE, 5);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_FORMAT, 3);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_AUTO_ADVANCE, 2);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     r = write_single(s, QMC_MODBUS_HR_WORD_ORDER, 2);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     /* One bad value refuses the whole write, trigger included. */
     const uint16_t w[11] = {2, 8, 0, 0, 0, 0, 0, 0, 0, 5, 1};
     uint16_t bad[11];
     memcpy(bad, w, sizeof w);
     bad[1] = 40;
     r = write_multi(s, 0, bad, 11);
-    assert_exception(&r, 0x10, 3);
+    mb_assert_exception(&r, 0x10, 3);
     holding(s, after);
     assert_memory_equal(before, after, sizeof before);
     r = read_regs(s, 0x04, 0, 2);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
     /* Malformed PDUs: short, long, byte count that lies, quantity 0/124. */
     const uint8_t short_read[4] = {0x03, 0, 0, 0};
     r = call(s, short_read, 4);
-    assert_exception(&r, 0x03, 3);
+    mb_assert_exception(&r, 0x03, 3);
     const uint8_t long_read[6] = {0x03, 0, 0, 0, 1, 0};
     r = call(s, long_read, 6);
-    assert_exception(&r, 0x03, 3);
+    mb_assert_exception(&r, 0x03, 3);
     const uint8_t short_write[4] = {0x06, 0, 1, 0};
     r = call(s, short_write, 4);
-    assert_exception(&r, 0x06, 3);
+    mb_assert_exception(&r, 0x06, 3);
     const uint8_t lying_count[8] = {0x10, 0, 0, 0, 1, 4, 0, 1};
     r = call(s, lying_count, 8);
-    assert_exception(&r, 0x10, 3);
+    mb_assert_exception(&r, 0x10, 3);
     const uint8_t missing_data[8] = {0x10, 0, 0, 0, 2, 4, 0, 1};
     r = call(s, missing_data, 8);
-    assert_exception(&r, 0x10, 3);
+    mb_assert_exception(&r, 0x10, 3);
     const uint8_t zero_qty[6] = {0x10, 0, 0, 0, 0, 0};
     r = call(s, zero_qty, 6);
-    assert_exception(&r, 0x10, 3);
+    mb_assert_exception(&r, 0x10, 3);
     uint8_t big[QMC_MODBUS_MAX_PDU] = {0x10, 0, 0, 0, 124, 247};
     r = call(s, big, sizeof big);
-    assert_exception(&r, 0x10, 3);
+    mb_assert_exception(&r, 0x10, 3);
     const uint8_t rw_short[9] = {0x17, 0, 100, 0, 1, 0, 0, 0, 1};
     r = call(s, rw_short, 9);
-    assert_exception(&r, 0x17, 3);
+    mb_assert_exception(&r, 0x17, 3);
     const uint8_t rw_zero_read[12] = {0x17, 0, 100, 0, 0, 0, 0, 0, 1, 2, 0, 1};
     r = call(s, rw_zero_read, 12);
-    assert_exception(&r, 0x17, 3);
+    mb_assert_exception(&r, 0x17, 3);
     const uint16_t v[1] = {1};
     r = read_write(s, 100, 126, 0, v, 1);
-    assert_exception(&r, 0x17, 3);
+    mb_assert_exception(&r, 0x17, 3);
     const uint16_t dims40[1] = {40};
     r = read_write(s, 100, 2, 1, dims40, 1);
-    assert_exception(&r, 0x17, 3);
+    mb_assert_exception(&r, 0x17, 3);
     holding(s, after);
     assert_memory_equal(before, after, sizeof before);
     qmc_modbus_session_free(s);
@@ -576,13 +539,13 @@ static void test_ex04_server_failure(void **state)
     fail_aligned_alloc = 1;
     reply r = write_multi(s, 0, w, 11);
     fail_aligned_alloc = 0;
-    assert_exception(&r, 0x10, QMC_MODBUS_EX_SERVER_FAILURE);
+    mb_assert_exception(&r, 0x10, QMC_MODBUS_EX_SERVER_FAILURE);
     uint16_t hr[13];
     holding(s, hr);
     assert_int_equal(hr[0], 1);
     assert_int_equal(hr[1], 2);
     r = read_regs(s, 0x04, 0, 2);
-    assert_int_equal(reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
+    assert_int_equal(mb_reg(&r, 1), QMC_MODBUS_STATUS_NO_REQUEST);
     /* And with memory back the same write works. */
     r = write_multi(s, 0, w, 11);
     assert_int_equal(r.n, 5);
@@ -618,7 +581,7 @@ static void test_truncations(void **state)
         assert_int_equal(r.b[0], reqs[i][0]);
         for (size_t n = 1; n < lens[i]; n++) {
             r = call(s, reqs[i], n);
-            assert_exception(&r, reqs[i][0], QMC_MODBUS_EX_ILLEGAL_VALUE);
+            mb_assert_exception(&r, reqs[i][0], QMC_MODBUS_EX_ILLEGAL_VALUE);
         }
     }
     qmc_modbus_session_free(s);

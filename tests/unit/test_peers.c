@@ -29,6 +29,7 @@
 #include <unistd.h>
 
 #include "peers.h"
+#include "peer_addr.h"
 
 static qmcd_peer_key uid_key(uint32_t uid)
 {
@@ -235,37 +236,6 @@ static void test_key_of_fails(void **state)
     close(s);
 }
 
-/* An address as Modbus makes it from an accepted socket: IPv4-mapped
- * addresses become IPv4. */
-static qmcd_ip addr_of(const char *text)
-{
-    qmcd_ip a;
-    memset(&a, 0, sizeof a);
-    uint8_t b[16];
-    if (inet_pton(AF_INET, text, b) == 1) {
-        a.family = AF_INET;
-        memcpy(a.addr, b, 4);
-    } else {
-        assert_int_equal(inet_pton(AF_INET6, text, b), 1);
-        static const uint8_t mapped[12] = {[10] = 0xff, [11] = 0xff};
-        if (memcmp(b, mapped, 12) == 0) {
-            a.family = AF_INET;
-            memcpy(a.addr, b + 12, 4);
-        } else {
-            a.family = AF_INET6;
-            memcpy(a.addr, b, 16);
-        }
-    }
-    return a;
-}
-
-static qmcd_ip net(const char *text)
-{
-    qmcd_ip a = addr_of(text), n;
-    qmcd_net_of(&a, &n);
-    return n;
-}
-
 /* A qmcd-protocol connection's peer key, as qmcd_peer_key_of makes it. */
 static qmcd_peer_key conn_key(const char *text)
 {
@@ -275,7 +245,7 @@ static qmcd_peer_key conn_key(const char *text)
 
 static void assert_same(const char *x, const char *y, int want)
 {
-    qmcd_ip a = net(x), b = net(y);
+    qmcd_ip a = peer_test_net(x), b = peer_test_net(y);
     if (qmcd_net_same(&a, &b) != want)
         fail_msg("%s and %s: same network %d, want %d", x, y, !want, want);
     /* A connection's key goes to the same network by the same rule. */
@@ -306,13 +276,13 @@ static void test_networks(void **state)
     assert_same("192.0.2.1", "::c000:201", 0);
     assert_same("2001:db8::7", "32.1.13.184", 0);
     char name[64];
-    qmcd_ip n = net("127.0.0.5");
+    qmcd_ip n = peer_test_net("127.0.0.5");
     qmcd_net_name(&n, name, sizeof name);
     assert_string_equal(name, "loopback");
-    n = net("2001:db8:0:2:1:2:3:4");
+    n = peer_test_net("2001:db8:0:2:1:2:3:4");
     qmcd_net_name(&n, name, sizeof name);
     assert_string_equal(name, "2001:db8:0:2::/64");
-    n = net("::ffff:192.0.2.7");
+    n = peer_test_net("::ffff:192.0.2.7");
     qmcd_net_name(&n, name, sizeof name);
     assert_string_equal(name, "192.0.2.7");
 }

@@ -98,11 +98,7 @@ static const eq_case eq_cases[] = {
 
 static void case_spec(const eq_case *c, qmc_integrate_spec *is)
 {
-    qmc_integrate_spec_init(is);
-    assert_int_equal(qmc_method_parse(c->method, &is->method), 0);
-    qmc_sampler sm;
-    if (qmc_sampler_parse(c->method, &sm) == 0)
-        qmc_sampling_spec_init(&is->sampling, sm);
+    session_test_method(is, c->method);
     is->tol_rel = c->tol_rel;
     if (c->max_evals)
         is->max_evals = c->max_evals;
@@ -164,9 +160,7 @@ static void test_batch_sizes(void **state)
     (void)state;
     problem p = session_test_make("genz-gaussian", 2, NULL, NULL);
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC); /* 16 x 4096 */
+    session_test_method(&is, "rqmc"); /* 16 x 4096 */
     qmc_session_spec ss;
     session_test_spec(&ss, &is, p.f);
     outcome o = session_test_via_session(&ss, p.f);
@@ -180,8 +174,7 @@ static void test_batch_sizes(void **state)
     assert_int_equal(o.batches, 16 * 16); /* the engine's 256-point chunks */
     qmc_testfn_free(p.fn);
     p = session_test_make("exp", 1, NULL, NULL);
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_GAUSS_KRONROD;
+    session_test_method(&is, "gauss-kronrod");
     session_test_spec(&ss, &is, p.f);
     o = session_test_via_session(&ss, p.f);
     assert_int_equal(o.largest, 21); /* G10-K21 on [0,1]: converged at once */
@@ -198,27 +191,19 @@ static void test_running_estimate(void **state)
     (void)state;
     problem p = session_test_make("genz-oscillatory", 4, NULL, NULL);
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
+    session_test_method(&is, "rqmc");
     is.sampling.reps = 12;
     qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = QMC_SAMPLING_BLOCK; /* one replicate a batch */
-    qmc_session *s = NULL;
-    char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    /* one replicate a batch */
+    qmc_session *s = session_test_open(&ss, &is, p.f, QMC_SAMPLING_BLOCK);
     qmc_session_report r;
     qmc_session_status(s, &r);
     assert_int_equal(r.end, QMC_SESSION_RUNNING);
     assert_int_equal(r.has_estimate, 0);
-    double vals[QMC_SAMPLING_BLOCK];
+    answer_buf buf = {NULL, 0};
     for (uint32_t rep = 1; rep <= 12; rep++) {
         qmc_session_batch b;
-        assert_int_equal(qmc_session_ask(s, &b), 0);
-        assert_int_equal(b.count, QMC_SAMPLING_BLOCK);
-        p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
-        assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
+        assert_int_equal(session_test_answer(s, p.f, &b, &buf), QMC_SAMPLING_BLOCK);
         qmc_session_status(s, &r);
         assert_int_equal(r.evals, rep * (uint64_t)QMC_SAMPLING_BLOCK);
         assert_int_equal(r.batches, rep);
@@ -242,6 +227,7 @@ static void test_running_estimate(void **state)
     qmc_session_batch b;
     assert_int_equal(qmc_session_ask(s, &b), 0);
     assert_int_equal(b.count, 0);
+    free(buf.vals);
     qmc_session_free(s);
     qmc_testfn_free(p.fn);
 }
@@ -260,20 +246,11 @@ static void test_running_lag(void **state)
     is.sampling.n = 200 * QMC_SAMPLING_BLOCK;
     is.n_given = 1;
     qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = QMC_SAMPLING_BLOCK;
-    qmc_session *s = NULL;
-    char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
-    static double vals[QMC_SAMPLING_BLOCK];
+    qmc_session *s = session_test_open(&ss, &is, p.f, QMC_SAMPLING_BLOCK);
+    answer_buf buf = {NULL, 0};
     uint64_t last_n = 0, updates = 0;
-    for (;;) {
-        qmc_session_batch b;
-        assert_int_equal(qmc_session_ask(s, &b), 0);
-        if (b.count == 0)
-            break;
-        p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
-        assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
+    qmc_session_batch b;
+    while (session_test_answer(s, p.f, &b, &buf)) {
         qmc_session_report r;
         qmc_session_status(s, &r);
         assert_int_equal(r.has_estimate, 1); /* mc: from the first block on */
@@ -281,10 +258,9 @@ static void test_running_lag(void **state)
         updates += r.running.n != last_n;
         last_n = r.running.n;
     }
+    free(buf.vals);
     assert_true(updates < 60); /* about 8 + ln(200/8)/ln(9/8) = 36, not 200 */
-    outcome o;
-    memset(&o, 0, sizeof o);
-    session_test_drive(s, p.f, &o);
+    outcome o = session_test_drive(s, p.f);
     assert_true(test_same_result(&o.status.running, &o.rep.res));
     assert_int_equal(o.rep.res.n, is.sampling.n);
     qmc_session_free(s);
@@ -298,19 +274,14 @@ static void test_running_rule(void **state)
     (void)state;
     problem p = session_test_make("genz-gaussian", 3, NULL, NULL);
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_CUBATURE;
+    session_test_method(&is, "cubature");
     qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    qmc_session *s = NULL;
-    char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    qmc_session *s = session_test_open(&ss, &is, p.f, 0);
     qmc_session_batch b;
-    assert_int_equal(qmc_session_ask(s, &b), 0);
-    assert_true(b.count > 0 && b.count <= 256);
-    double vals[256];
-    p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
-    assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
+    answer_buf buf = {NULL, 0};
+    const size_t first = session_test_answer(s, p.f, &b, &buf);
+    free(buf.vals);
+    assert_true(first > 0 && first <= 256);
     qmc_session_report r;
     qmc_session_status(s, &r);
     assert_int_equal(r.end, QMC_SESSION_RUNNING);
@@ -318,9 +289,10 @@ static void test_running_rule(void **state)
     assert_int_equal(r.evals, b.count);
     assert_int_equal(r.nonfinite, 0);
     assert_int_equal(r.running.flags, 0);
-    const size_t first = b.count;
     assert_int_equal(qmc_session_ask(s, &b), 0);
     assert_true(b.count > 0 && b.count <= 256);
+    double vals[256];
+    char why[256];
     p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
     vals[b.count - 1] = NAN;
     assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
@@ -329,9 +301,7 @@ static void test_running_rule(void **state)
     assert_int_equal(r.nonfinite, 1);
     assert_true(r.running.flags & QMC_FLAG_NONFINITE);
     /* and the integrator counted it too: the answer is flagged */
-    outcome o;
-    memset(&o, 0, sizeof o);
-    session_test_drive(s, p.f, &o);
+    outcome o = session_test_drive(s, p.f);
     assert_int_equal(o.err, 0);
     assert_int_equal(o.rep.res.nonfinite, 1);
     assert_true(o.rep.res.flags & QMC_FLAG_NONFINITE);
@@ -356,9 +326,7 @@ static void test_stack_depth(void **state)
         qmc_session *s = NULL;
         char why[256];
         assert_int_equal(qmc__session_new(&ss, 1, &s, why, sizeof why), 0);
-        outcome o;
-        memset(&o, 0, sizeof o);
-        session_test_drive(s, p.f, &o);
+        session_test_drive(s, p.f);
         size_t used = qmc__session_stack_used(s);
         assert_true(used > 0);
         deepest = used > deepest ? used : deepest;
@@ -411,9 +379,7 @@ static void test_parts(void **state)
             ss.part_p = cases[i].p;
             qmc_session *s = NULL;
             assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
-            outcome o;
-            memset(&o, 0, sizeof o);
-            session_test_drive(s, p.f, &o);
+            outcome o = session_test_drive(s, p.f);
             assert_int_equal(o.err, 0);
             assert_int_equal(o.status.end, QMC_SESSION_COMPLETE);
             qmc_session_part_sums part;
@@ -438,9 +404,7 @@ static void test_parts(void **state)
         assert_true(test_same_result(&merged, &whole.rep.res));
         /* not a part: refused */
         qmc_session_spec ss;
-        session_test_spec(&ss, &is, p.f);
-        qmc_session *s = NULL;
-        assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+        qmc_session *s = session_test_open(&ss, &is, p.f, 0);
         qmc_session_part_sums part;
         assert_int_equal(qmc_session_part(s, &part), QMC_EINVAL);
         qmc_session_free(s);

@@ -70,16 +70,12 @@ static void test_same_bytes(void **state)
     qmc_integrate_spec is = rqmc_spec();
     outcome want = session_test_via_integrate(&is, p.f);
     for (uint64_t max_batch = 4096; max_batch <= 65536; max_batch *= 4) {
-        qmc_session_spec ss;
-        session_test_spec(&ss, &is, p.f);
-        ss.max_batch = max_batch;
         size_t cap = (size_t)max_batch;
         double *a = malloc(cap * DIMS * sizeof *a), *b = malloc(cap * DIMS * sizeof *b);
         assert_non_null(a);
         assert_non_null(b);
-        qmc_session *s;
-        char why[256];
-        assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+        qmc_session_spec ss;
+        qmc_session *s = session_test_open(&ss, &is, p.f, max_batch);
         outcome got;
         drive_two_buffers(s, p.f, a, b, cap, &got);
         session_test_assert_same(&got, &want, "rqmc through two caller buffers");
@@ -99,16 +95,13 @@ static void test_own_batch(void **state)
     problem p = session_test_make("genz-oscillatory", DIMS, NULL, NULL);
     qmc_integrate_spec is = rqmc_spec();
     outcome want = session_test_via_integrate(&is, p.f);
-    qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 16384;
     const size_t cap = 16384;
     double *slot = malloc(cap * DIMS * sizeof *slot), *copy = malloc(cap * DIMS * sizeof *copy);
     double *vals = malloc(cap * sizeof *vals);
     assert_true(slot && copy && vals);
-    qmc_session *s;
+    qmc_session_spec ss;
+    qmc_session *s = session_test_open(&ss, &is, p.f, cap);
     char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
     qmc_session_batch b;
     assert_int_equal(qmc_session_ask(s, &b), 0);
     p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
@@ -122,8 +115,7 @@ static void test_own_batch(void **state)
     assert_int_equal(qmc_session_ask(s, &again), 0);
     assert_true(again.points != slot && again.seq == b.seq && again.count == b.count);
     assert_memory_equal(again.points, copy, b.count * DIMS * sizeof *copy);
-    outcome got;
-    session_test_drive(s, p.f, &got);
+    outcome got = session_test_drive(s, p.f);
     session_test_assert_same(&got, &want, "rqmc after own_batch");
     qmc_session_own_batch(s); /* done: a no-op */
     qmc_session_own_batch(NULL);
@@ -140,14 +132,11 @@ static void test_refusals(void **state)
     (void)state;
     problem p = session_test_make("genz-gaussian", DIMS, NULL, NULL);
     qmc_integrate_spec is = rqmc_spec();
-    qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 8192;
     double *buf = malloc(8192 * DIMS * sizeof *buf), *vals = calloc(8192, sizeof *vals);
     assert_true(buf && vals);
-    qmc_session *s;
+    qmc_session_spec ss;
+    qmc_session *s = session_test_open(&ss, &is, p.f, 8192);
     char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
     qmc_session_batch b;
     assert_int_equal(qmc_session_ask(s, &b), 0);
     assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, buf, 8191, why, sizeof why),
@@ -163,10 +152,8 @@ static void test_refusals(void **state)
     /* A rule assembles no batches: no buffer of its own to stand in for. */
     problem q = session_test_make("exp", 1, NULL, NULL);
     qmc_integrate_spec gk;
-    qmc_integrate_spec_init(&gk);
-    gk.method = QMC_METHOD_GAUSS_KRONROD;
-    session_test_spec(&ss, &gk, q.f);
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    session_test_method(&gk, "gauss-kronrod");
+    s = session_test_open(&ss, &gk, q.f, 0);
     assert_int_equal(qmc_session_ask(s, &b), 0);
     assert_int_equal(qmc_session_tell_to(s, b.seq, vals, b.count, buf, 8192, why, sizeof why),
                      QMC_EINVAL);

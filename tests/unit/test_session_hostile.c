@@ -68,11 +68,7 @@ static void test_hostile_values(void **state)
         f.eval = hostile_eval;
         f.ctx = &h;
         qmc_integrate_spec is;
-        qmc_integrate_spec_init(&is);
-        assert_int_equal(qmc_method_parse(cases[i].method, &is.method), 0);
-        qmc_sampler sm;
-        if (qmc_sampler_parse(cases[i].method, &sm) == 0)
-            qmc_sampling_spec_init(&is.sampling, sm);
+        session_test_method(&is, cases[i].method);
         is.tol_rel = cases[i].tol;
         is.max_evals = 1000000;
         outcome want = session_test_via_integrate(&is, &f);
@@ -104,15 +100,10 @@ static void test_hostile_caller(void **state)
     (void)state;
     problem p = session_test_make("genz-gaussian", 3, NULL, NULL);
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
+    session_test_method(&is, "rqmc");
     qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 4 * QMC_SAMPLING_BLOCK;
-    qmc_session *s = NULL;
+    qmc_session *s = session_test_open(&ss, &is, p.f, 4 * QMC_SAMPLING_BLOCK);
     char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
     double *vals = calloc(ss.max_batch + 1, sizeof *vals);
     assert_non_null(vals);
     /* tell before any ask */
@@ -146,27 +137,21 @@ static void test_hostile_caller(void **state)
     assert_int_equal(qmc_session_result(s, &(qmc_integrate_report){0}, why, sizeof why),
                      QMC_EAGAIN);
     /* now answer properly, with a stale retry of batch 0 in between */
-    outcome o;
-    memset(&o, 0, sizeof o);
     p.f->eval(p.f->ctx, b1.points, b1.count, b1.dims, vals);
     assert_int_equal(qmc_session_tell(s, b1.seq, vals, b1.count, why, sizeof why), 0);
     assert_int_equal(qmc_session_tell(s, b1.seq, vals, b1.count, why, sizeof why), QMC_EINVAL);
     assert_non_null(strstr(why, "answered already"));
     uint64_t told = 1;
-    for (;;) {
-        qmc_session_batch b;
-        assert_int_equal(qmc_session_ask(s, &b), 0);
-        if (!b.count)
-            break;
-        p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
-        assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
+    answer_buf buf = {vals, ss.max_batch + 1};
+    qmc_session_batch b;
+    while (session_test_answer(s, p.f, &b, &buf))
         told++;
-    }
+    vals = buf.vals;
     assert_int_equal(told, 4);
     /* done: a tell is refused, ask keeps saying done */
     assert_int_equal(qmc_session_tell(s, told, vals, 1, why, sizeof why), QMC_EINVAL);
     assert_non_null(strstr(why, "done"));
-    o.err = qmc_session_result(s, &o.rep, o.why, sizeof o.why);
+    outcome o = session_test_outcome(s);
     outcome want = session_test_via_integrate(&is, p.f);
     session_test_assert_same(&o, &want, "after hostile calls");
     free(vals);
@@ -233,29 +218,17 @@ static void test_close_midway(void **state)
         for (uint64_t stop = 0; stop < 3; stop++) {
             problem p = session_test_make(cases[i].fn, cases[i].dims, NULL, NULL);
             qmc_integrate_spec is;
-            qmc_integrate_spec_init(&is);
-            is.method = cases[i].m;
+            session_test_method(&is, qmc_method_name(cases[i].m));
             is.tol_rel = cases[i].tol;
             is.n_axis = 40;
-            if (is.method == QMC_METHOD_RQMC)
-                qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
             qmc_session_spec ss;
-            session_test_spec(&ss, &is, p.f);
-            ss.max_batch = QMC_SAMPLING_BLOCK;
-            qmc_session *s = NULL;
-            char why[256];
-            assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
-            double *vals = NULL;
-            for (uint64_t k = 0; k < stop; k++) {
-                qmc_session_batch b;
-                assert_int_equal(qmc_session_ask(s, &b), 0);
-                if (b.count == 0)
+            qmc_session *s = session_test_open(&ss, &is, p.f, QMC_SAMPLING_BLOCK);
+            answer_buf buf = {NULL, 0};
+            qmc_session_batch b;
+            for (uint64_t k = 0; k < stop; k++)
+                if (!session_test_answer(s, p.f, &b, &buf))
                     break;
-                vals = realloc(vals, b.count * sizeof *vals);
-                p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
-                assert_int_equal(qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why), 0);
-            }
-            free(vals);
+            free(buf.vals);
             qmc_session_free(s);
             qmc_testfn_free(p.fn);
         }
@@ -293,18 +266,11 @@ static void test_threads(void **state)
     problem p = session_test_make("genz-gaussian", 3, NULL, NULL);
     for (size_t i = 0; i < sizeof methods / sizeof methods[0]; i++) {
         qmc_integrate_spec is;
-        qmc_integrate_spec_init(&is);
-        is.method = methods[i];
+        session_test_method(&is, qmc_method_name(methods[i]));
         is.tol_rel = 1e-5;
         is.max_evals = 1000000;
-        if (is.method == QMC_METHOD_RQMC)
-            qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
         qmc_session_spec ss;
-        session_test_spec(&ss, &is, p.f);
-        ss.max_batch = 2 * QMC_SAMPLING_BLOCK;
-        qmc_session *s = NULL;
-        char why[256];
-        assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+        qmc_session *s = session_test_open(&ss, &is, p.f, 2 * QMC_SAMPLING_BLOCK);
         int threads = 0;
         for (;;) {
             qmc_session_report r;
@@ -319,9 +285,7 @@ static void test_threads(void **state)
             threads++;
         }
         assert_true(threads > 1);
-        outcome got;
-        memset(&got, 0, sizeof got);
-        got.err = qmc_session_result(s, &got.rep, got.why, sizeof got.why);
+        outcome got = session_test_outcome(s);
         outcome want = session_test_via_integrate(&is, p.f);
         session_test_assert_same(&got, &want, qmc_method_name(methods[i]));
         qmc_session_free(s);
@@ -336,19 +300,13 @@ static void test_own_hook(void **state)
     (void)state;
     problem p = session_test_make("genz-gaussian", 3, NULL, NULL);
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_CUBATURE;
+    session_test_method(&is, "cubature");
     is.tol_rel = 1e-14;
     test_hook h;
     is.interrupt = test_hook_init(&h, 3, NULL);
     qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    qmc_session *s = NULL;
-    char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
-    outcome o;
-    memset(&o, 0, sizeof o);
-    session_test_drive(s, p.f, &o);
+    qmc_session *s = session_test_open(&ss, &is, p.f, 0);
+    outcome o = session_test_drive(s, p.f);
     assert_int_equal(o.err, QMC_ECANCELED);
     assert_int_equal(o.status.end, QMC_SESSION_FAILED);
     assert_int_equal(o.status.err, QMC_ECANCELED);
@@ -376,11 +334,7 @@ static void test_end_reasons(void **state)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         problem p = session_test_make(cases[i].fn, cases[i].fn[0] == 'e' ? 1 : 2, NULL, NULL);
         qmc_integrate_spec is;
-        qmc_integrate_spec_init(&is);
-        assert_int_equal(qmc_method_parse(cases[i].method, &is.method), 0);
-        qmc_sampler sm;
-        if (qmc_sampler_parse(cases[i].method, &sm) == 0)
-            qmc_sampling_spec_init(&is.sampling, sm);
+        session_test_method(&is, cases[i].method);
         is.tol_rel = cases[i].tol;
         if (cases[i].budget)
             is.max_evals = cases[i].budget;
