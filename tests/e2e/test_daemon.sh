@@ -157,7 +157,7 @@ if start dl --config "$tmp/deadline.conf" --listen "unix:$tmp/dl.sock"; then
 fi
 # 11. STATS; 12. SIGHUP reload without reconnecting.
 peer stats "$U"
-peer reload "$U" "$tmp/qmcd.conf" "$MAIN"
+peer reload "$U" "$tmp/qmcd.conf" "$MAIN" "$tmp/main.log"
 if grep -q "reload rejected.*no-such-key" "$tmp/main.log"; then ok
 else bad "a bad config on SIGHUP was not logged with the problem"; fi
 
