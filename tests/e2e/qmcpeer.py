@@ -763,6 +763,49 @@ def sc_disconnect(addr):
     b.close()
 
 
+def sc_laggard(addr):
+    """A client that pipelines more PINGs than its answers' buffers hold,
+    then reads nothing for a while: the daemon stops reading it (its
+    answers back up), so the rest of a frame may wait in the socket - the
+    peer is not late with it, and frame-timeout-ms must not cut it
+    (write-timeout-ms, 60 s by default, judges a reader).  Run where
+    frame-timeout-ms is short (1 s): the 3 s pause is three of them.  A
+    slow machine can only make the pause look shorter to the daemon, never
+    fail a daemon that waits."""
+    p = Peer(addr)
+    n, data = 40000, b"x" * 256  # 11 MB of answers: more than 4 MB of out-buffer-bytes
+    first = p.next_id + 1
+    blob = b"".join(p.ping_frame(first + i, data) for i in range(n))
+    p.next_id += n
+
+    def send():
+        try:
+            p.send(blob)
+        except OSError:  # cut off: the check below says so
+            pass
+
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
+    sender.join(3.0)
+    held = sender.is_alive()  # the daemon stopped reading: our send blocks
+    time.sleep(3.0)
+    got, other = 0, None
+    try:
+        for _ in range(n):
+            f = p.recv()
+            if f is None or f[0] != "PONG":
+                other = f and (f[0], f[2])
+                break
+            got += 1
+    except (ConnectionResetError, socket.timeout, ValueError) as e:
+        other = repr(e)
+    sender.join(30)
+    check("a pipelining client that stops reading for 3 s: the daemon stops reading it (%s) "
+          "and still answers all %d PINGs (%d), no frame-timeout-ms" % (held, n, got),
+          held and got == n, repr(other))
+    p.close()
+
+
 def vmrss_kb(pid):
     with open("/proc/%d/status" % pid) as f:
         for line in f:
@@ -1306,6 +1349,7 @@ SCENARIOS = dict(hello=sc_hello, points=sc_points, points_error=sc_points_error,
                  timeout=sc_timeout, sigterm_jobs=sc_jobs_for_sigterm, reload=sc_reload,
                  malformed=sc_malformed, partial=sc_partial, maxconn=sc_maxconn,
                  stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits,
+                 laggard=sc_laggard,
                  flags_compat=sc_flags_compat)
 
 

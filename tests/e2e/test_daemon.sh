@@ -137,7 +137,9 @@ else bad "qmc points through the ring differs from in-process (exit $st): $(head
 # 9. Jobs: cancel (the time limit is section 10's).
 peer cancel "$U"
 # 10. Malformed, oversized frames; then, on a daemon of their own with
-# short deadlines, the job time limit, a partial frame, the handshake.
+# short deadlines, the job time limit, a partial frame, the handshake, and
+# a pipelining client that stops reading, which frame-timeout-ms must not
+# cut (the daemon, not the peer, holds its frames back).
 peer malformed "$T4"
 cat > "$tmp/deadline.conf" <<EOF
 threads = 2
@@ -150,6 +152,7 @@ if start dl --config "$tmp/deadline.conf" --listen "unix:$tmp/dl.sock"; then
     DL=$pid
     peer timeout "unix:$tmp/dl.sock"
     peer partial "unix:$tmp/dl.sock"
+    peer laggard "unix:$tmp/dl.sock"
     kill -TERM "$DL"
     # The wait only bounds a hang (a sanitized daemon exits slowly).
     if wait_exit "$DL" 60 && wait "$DL"; then ok; else bad "deadline daemon: SIGTERM"; fi
