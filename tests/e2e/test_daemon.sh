@@ -26,12 +26,12 @@ peer() { run_peer "$PEER" "$@"; }
 
 FP=$("$QMC" --version | sed -n 's/.*fingerprint: *//p')
 
-# The main daemon keeps the default handshake, frame and job deadlines:
-# short ones (section 10's own daemon has them, so they are seen quickly)
-# would race what must finish before them on a slow machine - 200 Python
-# clients' HELLOs under the GIL (handshake-timeout-ms), a long job that
-# JOB_CANCEL must find still running and jobs that SIGTERM must find
-# running (job-time-limit-ms would answer them ETIMEDOUT instead).
+# The main daemon keeps the default handshake, frame and job deadlines.
+# A short job-time-limit-ms here raced the scenarios that must find a long
+# job still running - JOB_CANCEL's, and SIGTERM's - which a slow machine
+# would see answered ETIMEDOUT instead; short frame and handshake
+# deadlines were margins every other scenario had to keep.  Section 10's
+# own daemon has the short ones, so that they are still seen quickly.
 cat > "$tmp/qmcd.conf" <<EOF
 threads = 2
 log-level = info
