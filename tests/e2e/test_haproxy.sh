@@ -186,12 +186,17 @@ i=0
 while [ ! -e "$tmp/kill.now" ] && [ $i -lt 400 ]; do sleep 0.05; i=$((i + 1)); done
 kill -9 "$VPID"
 wait "$VPID" 2>/dev/null
+# Waited for: its PID may be reused, and cleanup must not SIGKILL a stranger.
+forget "$VPID"
 touch "$tmp/killed"
 wait "$RUN"
 n_ok=$(grep -c ' ok$' "$tmp/run.log")
 if [ "$n_ok" -eq 40 ]; then ok
 else bad "with qmcd$victim killed mid-run only $n_ok of 40 clients were served: $(cat "$tmp"/run*.err | sort -u | head -n 3)"; fi
-if wait "$LONG"; then
+wait "$LONG"
+long_rc=$?
+forget "$LONG"
+if [ $long_rc -eq 0 ]; then
     bad "the long job's client exited 0 though its replica was killed"
 elif [ "$(wc -l < "$tmp/long.err")" -eq 1 ] && [ ! -s "$tmp/long.out" ]; then ok
 else bad "the cut job's client: stdout $(wc -c < "$tmp/long.out") bytes, stderr: $(cat "$tmp/long.err")"; fi
@@ -208,9 +213,11 @@ echo "long job's client after its replica died: $(cat "$tmp/long.err")"
 
 kill -TERM "$HA"
 wait "$HA" 2>/dev/null
+forget "$HA"
 for r in 1 2 3; do
     [ "$r" = "$victim" ] && continue
     eval "kill -TERM \$R$r; wait \$R$r" || bad "qmcd$r: SIGTERM did not exit 0"
+    eval "forget \$R$r"
 done
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/r*.log; then
     bad "sanitizer report in a replica log"
