@@ -30,6 +30,7 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <math.h>
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -456,6 +457,13 @@ static int answer(qmcd_conn *c, job *j)
         res->seconds = j->seconds;
         res->reference_kind = j->reference_kind;
         res->reference = j->reference_kind ? j->reference : 0;
+        /* Version 6 tells the integral of |f| the integrand knows, which
+         * `qmc integrate --json` judges errors against (none can be
+         * negative or infinite; the codec refuses those). */
+        const qmc_integrand *f = qmc_job_integrand(j->job);
+        res->has_known_abs = f->has_abs_integral && isfinite(f->abs_integral) &&
+                             f->abs_integral >= 0;
+        res->known_abs = res->has_known_abs ? f->abs_integral : 0;
         res->detail.ptr = j->rep.detail;
         res->detail.len = (uint32_t)strnlen(j->rep.detail, sizeof j->rep.detail);
         res->auto_reason.ptr = j->rep.auto_reason;

@@ -104,6 +104,13 @@ typedef struct qmc_client_result {
     double reference;
     char detail[QMC_PROTO_MAX_MESSAGE + 1];      /* NUL-terminated */
     char auto_reason[QMC_PROTO_MAX_MESSAGE + 1]; /* "" unless auto chose */
+    /* The integral of |f| the integrand knows in closed form, which a
+     * report judges errors against (res.abs_integral is the integrator's
+     * estimate of it): has_known_abs 1 with known_abs, 0 when nothing is
+     * known (a session's f), -1 when the server did not say (protocol
+     * version 5 or older). */
+    int has_known_abs;
+    double known_abs;
 } qmc_client_result;
 
 /*

@@ -78,9 +78,6 @@ class SessionRequest(JobRequest):
     function's name in full, or "f"), the method asked for, the
     confidence."""
 
-    def known_abs(self, reference_kind, reference):
-        return None
-
 
 def _wire_name(name):
     """The first SESSION_NAME_MAX bytes of name that are whole UTF-8

@@ -240,6 +240,33 @@ class Jobs(unittest.TestCase):
                                  "the two clients sent different INTEGRATE requests")
                 self.assertEqual(r.seconds, PINNED_SECONDS)
                 self.assertEqual((r.json() + "\n").encode(), want)
+                # In-process (no daemon: libqmc's own integral of |f|, not
+                # the wire's), the same line but for the clock.
+                here = support.qmc("integrate", "--json", *args.split())
+                self.assertEqual(support.pin_seconds(here), support.pin_seconds(want))
+                self.assertTrue(r.known_abs_told)
+
+    def test_the_integral_of_abs_f_comes_from_the_daemon(self):
+        """Both clients print the known integral of |f| the daemon sends
+        (protocol version 6), not one of their own: a proxy puts 0.5 in
+        its place; and a session's f has none, its estimate stands in."""
+        proxy = PinProxy(plain.unix[5:], support.scratch(), known_abs=0.5)
+        self.addCleanup(proxy.close)
+        args = "--integrand genz-oscillatory --dims 3 --method rqmc --n 1024"
+        cli = support.qmc("integrate", "--json", "--connect", proxy.endpoint, *args.split())
+        with qmcd.connect(proxy.endpoint) as c:
+            r = c.run(*kwargs(args, None)[:2], **kwargs(args, None)[2])
+        self.assertEqual((r.json() + "\n").encode(), cli)
+        self.assertEqual(r.known_abs, 0.5)
+        self.assertIn(b'"abs_integral":0.5,', cli)
+        with qmcd.connect(plain.unix) as c:
+            unknown = c.run(*kwargs(args, None)[:2], **kwargs(args, None)[2])
+            known = c.run("genz-gaussian", 3, method="rqmc", n=1024)
+            s = c.integrate(lambda x: x[:, 0], 1, method="gauss-legendre", n=4)
+        self.assertEqual((unknown.known_abs_told, unknown.known_abs), (True, None))
+        self.assertEqual(known.known_abs, known.exact)  # a positive f's
+        self.assertEqual((s.known_abs_told, s.known_abs), (True, None))
+        self.assertIn('"abs_integral":%s,' % ("%.17g" % s.abs_integral), s.json())
 
     def test_result_object(self):
         with qmcd.connect(plain.unix) as c:
