@@ -162,6 +162,9 @@ static int send_end(qmcd_conn *c, qmcd_sess_attach *a)
     res->seconds = s->compute_s;
     res->reference_kind = s->spec.has_exact ? 1 : 0;
     res->reference = s->spec.has_exact ? s->spec.exact : 0;
+    /* The caller's f: nothing is known of |f| in closed form. */
+    res->has_known_abs = 0;
+    res->known_abs = 0;
     return qmcd_conn_send(c, &r);
 }
 

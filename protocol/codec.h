@@ -161,6 +161,12 @@ void qmc__io_f64s(qmc__io *io, qmc_f64s *list, uint32_t max, int finite);
 /* len bytes whose length was sent earlier: a view when decoding. */
 void qmc__io_blob(qmc__io *io, const uint8_t **data, uint32_t len);
 
+/* known_abs.c: JOB_RESULT's version-6 tail, the integral of |f| known in
+ * closed form (QMC__KNOWN_ABS_BYTES on the wire from version 6 on; none
+ * before, and a decoded message's has_known_abs is then -1). */
+enum { QMC__KNOWN_ABS_BYTES = 16 };
+void qmc__io_known_abs(qmc__io *io, qmc_msg_job_result *r);
+
 /* 1 when p[0 .. n) is well-formed UTF-8 (RFC 3629) with no NUL byte. */
 int qmc__utf8_ok(const uint8_t *p, size_t n);
 

@@ -414,6 +414,7 @@ static void io_result(qmc__io *io, qmc_msg *m)
     io_sampling(io, &r->sampling, 0);
     qmc__io_str(io, &r->detail, QMC_PROTO_MAX_MESSAGE, QMC__STR_TEXT);
     qmc__io_str(io, &r->auto_reason, QMC_PROTO_MAX_MESSAGE, QMC__STR_TEXT);
+    qmc__io_known_abs(io, r); /* version 6 on */
 }
 
 static void io_empty(qmc__io *io, qmc_msg *m)
@@ -750,8 +751,9 @@ static void io_session_close(qmc__io *io, qmc_msg *m)
             2 * (LEN32 + 8 * QMC_PROTO_MAX_LIST) + LEN32 + QMC_SCENE_MAX_BYTES
 #define LAYOUT_JOB_ACCEPTED io_job_id, FIXED_JOB_ID, FIXED_JOB_ID
 #define LAYOUT_JOB_PROGRESS io_progress, FIXED_PROGRESS, FIXED_PROGRESS
-#define LAYOUT_JOB_RESULT \
-    io_result, FIXED_RESULT + 2 * STR16, FIXED_RESULT + 2 * (STR16 + QMC_PROTO_MAX_MESSAGE)
+#define LAYOUT_JOB_RESULT                            \
+    io_result, FIXED_RESULT + 2 * STR16,             \
+        FIXED_RESULT + 2 * (STR16 + QMC_PROTO_MAX_MESSAGE) + QMC__KNOWN_ABS_BYTES
 #define LAYOUT_JOB_STATUS LAYOUT_JOB_ACCEPTED
 #define LAYOUT_JOB_STATE io_state, FIXED_STATE, FIXED_STATE
 #define LAYOUT_JOB_CANCEL LAYOUT_JOB_ACCEPTED

@@ -92,7 +92,10 @@ extern "C" {
 
 typedef struct qmc_client qmc_client;
 
-/* An integration result, copied out of the server's JOB_RESULT frame. */
+/* An integration result, copied out of the server's JOB_RESULT frame.
+ * The caller allocates it, so its size is part of the ABI: while the
+ * library is 0.x (soname libqmcclient.so.0) it may grow between releases
+ * (version 6 added has_known_abs), and clients are rebuilt with it. */
 typedef struct qmc_client_result {
     uint64_t job_id;
     qmc_result res;
@@ -104,6 +107,13 @@ typedef struct qmc_client_result {
     double reference;
     char detail[QMC_PROTO_MAX_MESSAGE + 1];      /* NUL-terminated */
     char auto_reason[QMC_PROTO_MAX_MESSAGE + 1]; /* "" unless auto chose */
+    /* The integral of |f| the integrand knows in closed form, which a
+     * report judges errors against (res.abs_integral is the integrator's
+     * estimate of it): has_known_abs 1 with known_abs, 0 when nothing is
+     * known (a session's f), -1 when the server did not say (protocol
+     * version 5 or older). */
+    int has_known_abs;
+    double known_abs;
 } qmc_client_result;
 
 /*

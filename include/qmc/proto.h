@@ -53,7 +53,7 @@ extern "C" {
 /* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
  * the frame format): 1 is the base set; 2 adds the shared-memory transport
  * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
-#define QMC_PROTO_VERSION_MAX 5u
+#define QMC_PROTO_VERSION_MAX 6u
 #define QMC_PROTO_VERSION_SHM 2u
 /* Version 3 adds the key-based authentication of the handshake
  * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
@@ -64,7 +64,7 @@ extern "C" {
  * version the connection negotiated (qmc_proto_result_flags_for). */
 #define QMC_PROTO_VERSION_FLAGS3 3u
 #define QMC_PROTO_RESULT_FLAGS_V1 0x00000fffu   /* versions 1 and 2 */
-#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3, 4 and 5 */
+#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3 to 6 */
 /* Version 4 adds PIXELS (a tile of a pixel sampler, qmc/pixel.h),
  * answered by the chunk and END frames POINTS uses. */
 #define QMC_PROTO_VERSION_PIXELS 4u
@@ -74,6 +74,11 @@ extern "C" {
  * qmc/session.h): the client evaluates f at the points the server hands
  * out, the server keeps the estimate and the stopping rule. */
 #define QMC_PROTO_VERSION_SESSIONS 5u
+/* Version 6 adds to JOB_RESULT (and SESSION_RESULT, its layout) the
+ * integral of |f| the integrand knows in closed form (has_known_abs,
+ * known_abs), so a client judges errors against the daemon's knowledge
+ * instead of a copy of libqmc's rules. */
+#define QMC_PROTO_VERSION_KNOWN_ABS 6u
 /* Bytes of a session's token (SESSION_OPENED): from the server's
  * cryptographic random number generator, 256 bits. */
 #define QMC_PROTO_SESSION_TOKEN_BYTES 32u
@@ -309,6 +314,13 @@ typedef struct qmc_msg_job_result {
     double reference;
     qmc_str detail;               /* <= QMC_PROTO_MAX_MESSAGE */
     qmc_str auto_reason;          /* <= QMC_PROTO_MAX_MESSAGE */
+    /* Version 6: the integral of |f| known in closed form (the
+     * integrand's has_abs_integral and abs_integral, qmc/integrand.h; not
+     * res.abs_integral, the integrator's estimate of it).  has_known_abs
+     * is 1 (known_abs: finite, >= 0) or 0 (unknown, known_abs 0); decoded
+     * at version 5 or older, where the wire has no such field, it is -1. */
+    int has_known_abs;
+    double known_abs;
 } qmc_msg_job_result;
 
 /* Integration sessions (protocol version 5, PROTOCOL.md section 6.21):

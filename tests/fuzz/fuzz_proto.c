@@ -11,7 +11,10 @@
  * also decoded as every older protocol version: what an older version
  * accepts is the same message, re-encoded for that version to the same
  * bytes, and it refuses only a JOB_RESULT, SESSION_RESULT or
- * SESSION_REPORT with flags it does not define (PROTOCOL.md section 5).
+ * SESSION_REPORT with flags it does not define (PROTOCOL.md section 5) -
+ * and every JOB_RESULT and SESSION_RESULT below version 6, which appended
+ * the known integral of |f| (section 6.10): encoded for such a version the
+ * message is the frame without those 16 bytes, read back as "not told".
  * The session messages keep the bounds their receivers rely on (section
  * 6.21).  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
@@ -27,6 +30,7 @@
 
 #include "../../protocol/codec.c"
 #include "../../protocol/fields.c"
+#include "../../protocol/known_abs.c"
 #include "../../protocol/messages.c"
 #include "../../protocol/result_flags.c"
 
@@ -143,6 +147,23 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
         for (unsigned v = 1; v < QMC_PROTO_VERSION_MAX; v++) {
             qmc_msg mv;
             int nv = qmc_proto_decode_version(data + off, size - off, max_payload, v, &mv);
+            if ((m.type == QMC_MSG_JOB_RESULT || m.type == QMC_MSG_SESSION_RESULT) &&
+                v < QMC_PROTO_VERSION_KNOWN_ABS) {
+                if (nv != QMC_EPROTO)
+                    __builtin_trap();
+                if (*result_flags(&m) & ~qmc_proto_result_flags_defined(v))
+                    continue; /* projected flags: test_proto_flags.c's matter */
+                const int short_n = n - (int)QMC__KNOWN_ABS_BYTES;
+                if (qmc_proto_encode_version(&m, v, again, QMC_PROTO_HEADER_BYTES +
+                                                               QMC_PROTO_MAX_PAYLOAD) != short_n ||
+                    memcmp(again + QMC_PROTO_HEADER_BYTES, data + off + QMC_PROTO_HEADER_BYTES,
+                           (size_t)short_n - QMC_PROTO_HEADER_BYTES) != 0 ||
+                    qmc_proto_decode_version(again, (size_t)short_n, max_payload, v, &mv) !=
+                        short_n ||
+                    mv.u.result.has_known_abs != -1)
+                    __builtin_trap();
+                continue;
+            }
             if (nv == QMC_EPROTO) {
                 if (result_flags(&m) == NULL ||
                     (*result_flags(&m) & ~qmc_proto_result_flags_defined(v)) == 0)

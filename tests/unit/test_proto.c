@@ -180,6 +180,8 @@ static void build_result(qmc_msg *m, int variant)
         r->reference = 0.3126145;
         r->detail = str_of("sobol owen, 16 x 4096 points");
         r->auto_reason = str_of("");
+        r->has_known_abs = 1; /* version 6: a positive f's, its exact value */
+        r->known_abs = 0.3126145;
         return;
     }
     r->job_id = UINT64_MAX;
@@ -212,6 +214,8 @@ static void build_result(qmc_msg *m, int variant)
     r->reference = -DBL_MIN;
     r->detail = text_of_len(QMC_PROTO_MAX_MESSAGE);
     r->auto_reason = text_of_len(QMC_PROTO_MAX_MESSAGE);
+    r->has_known_abs = 1;
+    r->known_abs = DBL_MAX;
 }
 
 /* Builds a message of each type: the documented example, the smallest
@@ -297,8 +301,11 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
     case QMC_MSG_SESSION_RESULT: /* the same layout: session 5, request 11 */
         m->request_id = ex ? (type == QMC_MSG_JOB_RESULT ? 4 : 11) : m->request_id;
         build_result(m, variant);
-        if (ex && type == QMC_MSG_SESSION_RESULT)
+        if (ex && type == QMC_MSG_SESSION_RESULT) {
             m->u.result.job_id = 5;
+            m->u.result.has_known_abs = 0; /* a session's f: nothing known */
+            m->u.result.known_abs = 0;
+        }
         break;
     case QMC_MSG_JOB_STATE:
         m->request_id = ex ? 5 : m->request_id;
@@ -485,6 +492,8 @@ static void same_result(const qmc_msg_job_result *a, const qmc_msg_job_result *b
     same_f64(a->reference, b->reference);
     same_str(a->detail, b->detail);
     same_str(a->auto_reason, b->auto_reason);
+    assert_int_equal(a->has_known_abs, b->has_known_abs);
+    same_f64(a->known_abs, b->known_abs);
 }
 
 static void same_msg(const qmc_msg *a, const qmc_msg *b)
@@ -671,10 +680,14 @@ static void test_roundtrip(void **state)
             assert_int_equal(qmc_proto_encode(&d, frame2, sizeof frame2), (int)n);
             assert_memory_equal(frame, frame2, n);
             /* The minimal and maximal variants sit exactly on the table's
-             * payload bounds. */
+             * payload bounds - which span every version: a result's
+             * smallest frame is version 5's, without version 6's tail. */
             const qmc__layout *lay = qmc__proto_layout(all_types[t]);
+            const int result = all_types[t] == QMC_MSG_JOB_RESULT ||
+                               all_types[t] == QMC_MSG_SESSION_RESULT;
             if (v == MINIMAL)
-                assert_int_equal(n - QMC_PROTO_HEADER_BYTES, lay->min_payload);
+                assert_int_equal(n - QMC_PROTO_HEADER_BYTES,
+                                 lay->min_payload + (result ? QMC__KNOWN_ABS_BYTES : 0));
             if (v == MAXIMAL)
                 assert_int_equal(n - QMC_PROTO_HEADER_BYTES, lay->max_payload);
         }
@@ -816,6 +829,9 @@ enum {
     I_SCENE = I_U + 4 + 24
 };
 
+/* Where the JOB_RESULT example's version-6 tail starts. */
+enum { R_TAIL = 160 + 2 + 28 + 2 };
+
 typedef struct mutation {
     qmc_msg_type type;
     uint32_t off;     /* in the payload */
@@ -899,6 +915,14 @@ static const mutation mutations[] = {
     {QMC_MSG_JOB_RESULT, 157, 3, 1, "reserved"},
     {QMC_MSG_JOB_RESULT, 160, 2, QMC_PROTO_MAX_MESSAGE + 1, "detail over its limit"},
     {QMC_MSG_JOB_RESULT, 160, 2, 40, "detail past the payload"},
+    /* Version 6's tail, after the 28-byte detail and the empty auto_reason. */
+    {QMC_MSG_JOB_RESULT, R_TAIL, 1, 2, "has_known_abs 2"},
+    {QMC_MSG_JOB_RESULT, R_TAIL, 1, 0, "an unknown integral of |f| with a value"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 1, 1, 1, "reserved"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 7, 1, 1, "reserved"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0x7ff8000000000000u, "known_abs NaN"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0x7ff0000000000000u, "known_abs inf"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0xbff0000000000000u, "known_abs -1"},
     {QMC_MSG_STATS_REPLY, 0, 4, 4, "count past the payload"},
     {QMC_MSG_STATS_REPLY, 0, 4, 2, "count leaves bytes over"},
     {QMC_MSG_STATS_REPLY, 0, 4, QMC_PROTO_MAX_STATS, "count past the payload"},
@@ -1062,6 +1086,15 @@ static void test_encoder_refuses(void **state)
     m.u.result.detail.ptr = over;
     m.u.result.detail.len = QMC_PROTO_MAX_MESSAGE + 1;
     refuse(&m, "a long detail");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.has_known_abs = -1;
+    refuse(&m, "a known integral of |f| never told (a version-5 frame's)");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.known_abs = -0.5;
+    refuse(&m, "a negative integral of |f|");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.has_known_abs = 0;
+    refuse(&m, "an unknown integral of |f| with a value");
 
     build(QMC_MSG_STATS_REPLY, EXAMPLE, &m);
     m.u.stats.count = QMC_PROTO_MAX_STATS + 1;
