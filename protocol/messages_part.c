@@ -88,7 +88,7 @@ void qmc__io_session_part_sums(qmc__io *io, qmc_msg *m)
     if (io->err || io->rd.bad)
         return;
     if (p->n == 0 || p->n > QMC_PROTO_PART_MAX_SUMS || p->first >= QMC_SAMPLING_MAX_BLOCKS ||
-        p->n > QMC_SAMPLING_MAX_BLOCKS - p->first || (!io->decode && !p->sums)) {
+        p->n > QMC_SAMPLING_MAX_BLOCKS - p->first || (!io->decode && !p->sums && !p->raw)) {
         qmc__io_invalid(io);
         return;
     }
@@ -108,8 +108,10 @@ void qmc__io_session_part_sums(qmc__io *io, qmc_msg *m)
         }
         return;
     }
+    /* From the caller's sums, or from a decoded frame's records. */
     for (uint32_t i = 0; i < p->n && io->err == 0; i++) {
-        qmc_sampling_sums s = p->sums[i];
+        qmc_sampling_sums s;
+        qmc_proto_part_sums_at(p, i, &s);
         if (s.block != p->first + i) {
             qmc__io_invalid(io);
             return;

@@ -1,0 +1,48 @@
+/*
+ * proto_check.c - the codec's per-message checks shared by its tests
+ * (proto_check.h).
+ *
+ * Must not: build messages, or decide what is valid (the codec does).
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include "proto_check.h"
+
+size_t proto_encode_into(const qmc_msg *m, uint8_t *buf, size_t cap)
+{
+    int n = qmc_proto_encode(m, buf, cap);
+    if (n < 0)
+        fail_msg("encoding %s failed: %d", qmc_msg_type_name(m->type), n);
+    assert_int_equal((size_t)n, qmc_proto_encoded_size(m));
+    return (size_t)n;
+}
+
+void proto_check_mutation(const qmc_msg *m, const proto_mutation *mu, uint8_t *buf,
+                          size_t cap)
+{
+    qmc_msg d;
+    assert_int_equal(m->type, mu->type);
+    size_t n = proto_encode_into(m, buf, cap);
+    /* Unmutated, it decodes: the mutation is what breaks it. */
+    assert_int_equal(qmc_proto_decode(buf, n, QMC_PROTO_MAX_PAYLOAD, &d), (int)n);
+    assert_true(QMC_PROTO_HEADER_BYTES + mu->off + (size_t)mu->width <= n);
+    uint8_t *p = buf + QMC_PROTO_HEADER_BYTES + mu->off;
+    for (int k = 0; k < mu->width; k++)
+        p[k] = (uint8_t)(mu->value >> (8 * k));
+    int got = qmc_proto_decode(buf, n, QMC_PROTO_MAX_PAYLOAD, &d);
+    if (got != QMC_EPROTO)
+        fail_msg("%s: %s decoded to %d", qmc_msg_type_name(mu->type), mu->what, got);
+    assert_int_equal(d.type, 0); /* the message is cleared on error */
+}
+
+void proto_check_refused(const qmc_msg *m, const char *what, uint8_t *buf, size_t cap)
+{
+    int got = qmc_proto_encode(m, buf, cap);
+    if (got != QMC_EINVAL)
+        fail_msg("encoding %s with %s gave %d", qmc_msg_type_name(m->type), what, got);
+    assert_int_equal(qmc_proto_encoded_size(m), 0);
+}
