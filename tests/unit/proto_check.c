@@ -10,6 +10,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include <string.h>
+
 #include "proto_check.h"
 
 size_t proto_encode_into(const qmc_msg *m, uint8_t *buf, size_t cap)
@@ -37,6 +39,24 @@ void proto_check_mutation(const qmc_msg *m, const proto_mutation *mu, uint8_t *b
     if (got != QMC_EPROTO)
         fail_msg("%s: %s decoded to %d", qmc_msg_type_name(mu->type), mu->what, got);
     assert_int_equal(d.type, 0); /* the message is cleared on error */
+}
+
+void proto_check_mutations(const proto_mutation *mu, size_t n, proto_builder build,
+                           int variant, uint8_t *buf, size_t cap)
+{
+    for (size_t i = 0; i < n; i++) {
+        qmc_msg m;
+        build(mu[i].type, variant, &m);
+        proto_check_mutation(&m, &mu[i], buf, cap);
+    }
+}
+
+void proto_same_f64(double a, double b)
+{
+    uint64_t x, y;
+    memcpy(&x, &a, 8);
+    memcpy(&y, &b, 8);
+    assert_true(x == y);
 }
 
 void proto_check_refused(const qmc_msg *m, const char *what, uint8_t *buf, size_t cap)

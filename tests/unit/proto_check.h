@@ -36,6 +36,15 @@ size_t proto_encode_into(const qmc_msg *m, uint8_t *buf, size_t cap);
 void proto_check_mutation(const qmc_msg *m, const proto_mutation *mu, uint8_t *buf,
                           size_t cap);
 
+/* Every mutation of the table: build(type, variant, &m) makes the valid
+ * message each is written over. */
+typedef void (*proto_builder)(qmc_msg_type type, int variant, qmc_msg *m);
+void proto_check_mutations(const proto_mutation *mu, size_t n, proto_builder build,
+                           int variant, uint8_t *buf, size_t cap);
+
+/* Asserts that two doubles are the same bit pattern (NaN payloads, -0). */
+void proto_same_f64(double a, double b);
+
 /* Encoding m (into buf) is QMC_EINVAL, and encoded_size 0. */
 void proto_check_refused(const qmc_msg *m, const char *what, uint8_t *buf, size_t cap);
 

@@ -16,6 +16,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "proto_check.h"
 #include "proto_part.h"
 
 /* The largest frame's records: every count at its limit, sums of any bit
@@ -150,13 +151,6 @@ void proto_part_build(qmc_msg_type type, int variant, qmc_msg *m)
         fail_msg("proto_part_build: %s is not a part message", qmc_msg_type_name(type));
 }
 
-static void same_f64(double a, double b)
-{
-    uint64_t x, y;
-    memcpy(&x, &a, 8);
-    memcpy(&y, &b, 8);
-    assert_true(x == y);
-}
 
 static void same_sums(const qmc_sampling_sums *s, const qmc_sampling_sums *t)
 {
@@ -166,9 +160,9 @@ static void same_sums(const qmc_sampling_sums *s, const qmc_sampling_sums *t)
     const double w[11] = {t->f[0], t->f[1], t->absf[0], t->absf[1], t->g[0], t->g[1],
                           t->mean_f, t->mean_g, t->m2_f, t->m2_g, t->c_fg};
     for (int k = 0; k < 11; k++)
-        same_f64(u[k], w[k]);
+        proto_same_f64(u[k], w[k]);
     for (int k = 0; k < QMC_SAMPLING_TOP; k++)
-        same_f64(s->top[k], t->top[k]);
+        proto_same_f64(s->top[k], t->top[k]);
 }
 
 void proto_part_same(const qmc_msg *a, const qmc_msg *b)
@@ -189,7 +183,7 @@ void proto_part_same(const qmc_msg *a, const qmc_msg *b)
         assert_true(x->seed == y->seed && x->n == y->n);
         assert_int_equal(x->reps, y->reps);
         assert_int_equal(x->split_net != 0, y->split_net != 0);
-        same_f64(x->confidence, y->confidence);
+        proto_same_f64(x->confidence, y->confidence);
         return;
     }
     if (a->type != QMC_MSG_SESSION_PART_SUMS)

@@ -404,13 +404,6 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
 
 /* ---- field-by-field comparison ------------------------------------------- */
 
-static void same_f64(double a, double b)
-{
-    uint64_t x, y;
-    memcpy(&x, &a, 8);
-    memcpy(&y, &b, 8);
-    assert_true(x == y); /* bit for bit: NaN payloads and -0.0 included */
-}
 
 static void same_str(qmc_str a, qmc_str b)
 {
@@ -423,7 +416,7 @@ static void same_list(const qmc_f64s *a, const qmc_f64s *b)
 {
     assert_int_equal(a->count, b->count);
     for (uint32_t i = 0; i < a->count; i++)
-        same_f64(qmc_proto_f64_at(a, i), qmc_proto_f64_at(b, i));
+        proto_same_f64(qmc_proto_f64_at(a, i), qmc_proto_f64_at(b, i));
 }
 
 static void same_sampling(const qmc_sampling_spec *a, const qmc_sampling_spec *b)
@@ -435,7 +428,7 @@ static void same_sampling(const qmc_sampling_spec *a, const qmc_sampling_spec *b
     assert_true(a->seed == b->seed);
     assert_true(a->n == b->n);
     assert_int_equal(a->reps, b->reps);
-    same_f64(a->confidence, b->confidence);
+    proto_same_f64(a->confidence, b->confidence);
 }
 
 static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *b)
@@ -446,15 +439,15 @@ static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *
     assert_int_equal(s->dims, t->dims);
     assert_int_equal(s->difficulty, t->difficulty);
     assert_int_equal(s->strategy, t->strategy);
-    same_f64(s->beta, t->beta);
+    proto_same_f64(s->beta, t->beta);
     assert_int_equal(s->samples_brdf, t->samples_brdf);
     assert_int_equal(s->samples_light, t->samples_light);
     assert_int_equal(s->integrate.method, t->integrate.method);
     same_sampling(&s->integrate.sampling, &t->integrate.sampling);
     assert_int_equal(s->integrate.n_given != 0, t->integrate.n_given != 0);
     assert_int_equal(s->integrate.n_axis, t->integrate.n_axis);
-    same_f64(s->integrate.tol_abs, t->integrate.tol_abs);
-    same_f64(s->integrate.tol_rel, t->integrate.tol_rel);
+    proto_same_f64(s->integrate.tol_abs, t->integrate.tol_abs);
+    proto_same_f64(s->integrate.tol_rel, t->integrate.tol_rel);
     assert_true(s->integrate.max_evals == t->integrate.max_evals);
     assert_true(s->integrate.max_memory == t->integrate.max_memory);
     same_list(&a->a, &b->a);
@@ -470,25 +463,25 @@ static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *
 static void same_result(const qmc_msg_job_result *a, const qmc_msg_job_result *b)
 {
     assert_true(a->job_id == b->job_id);
-    same_f64(a->res.estimate, b->res.estimate);
-    same_f64(a->res.error, b->res.error);
-    same_f64(a->res.ci_low, b->res.ci_low);
-    same_f64(a->res.ci_high, b->res.ci_high);
+    proto_same_f64(a->res.estimate, b->res.estimate);
+    proto_same_f64(a->res.error, b->res.error);
+    proto_same_f64(a->res.ci_low, b->res.ci_low);
+    proto_same_f64(a->res.ci_high, b->res.ci_high);
     assert_int_equal(a->res.error_kind, b->res.error_kind);
     assert_true(a->res.n == b->res.n);
     assert_true(a->res.evals == b->res.evals);
     assert_int_equal(a->res.dims, b->res.dims);
     assert_int_equal(a->res.flags, b->res.flags);
     assert_true(a->res.nonfinite == b->res.nonfinite);
-    same_f64(a->res.abs_integral, b->res.abs_integral);
+    proto_same_f64(a->res.abs_integral, b->res.abs_integral);
     assert_int_equal(a->cv.used != 0, b->cv.used != 0);
-    same_f64(a->cv.beta, b->cv.beta);
-    same_f64(a->cv.variance_ratio, b->cv.variance_ratio);
+    proto_same_f64(a->cv.beta, b->cv.beta);
+    proto_same_f64(a->cv.variance_ratio, b->cv.variance_ratio);
     assert_int_equal(a->method_used, b->method_used);
     same_sampling(&a->sampling, &b->sampling);
-    same_f64(a->seconds, b->seconds);
+    proto_same_f64(a->seconds, b->seconds);
     assert_int_equal(a->reference_kind, b->reference_kind);
-    same_f64(a->reference, b->reference);
+    proto_same_f64(a->reference, b->reference);
     same_str(a->detail, b->detail);
     same_str(a->auto_reason, b->auto_reason);
 }
@@ -550,7 +543,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_JOB_PROGRESS:
         assert_true(a->u.progress.job_id == b->u.progress.job_id);
         assert_true(a->u.progress.evals == b->u.progress.evals);
-        same_f64(a->u.progress.seconds, b->u.progress.seconds);
+        proto_same_f64(a->u.progress.seconds, b->u.progress.seconds);
         break;
     case QMC_MSG_JOB_RESULT:
     case QMC_MSG_SESSION_RESULT:
@@ -560,7 +553,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
         assert_true(a->u.state.job_id == b->u.state.job_id);
         assert_int_equal(a->u.state.state, b->u.state.state);
         assert_true(a->u.state.evals == b->u.state.evals);
-        same_f64(a->u.state.seconds, b->u.state.seconds);
+        proto_same_f64(a->u.state.seconds, b->u.state.seconds);
         break;
     case QMC_MSG_STATS:
         break;
@@ -942,11 +935,8 @@ static const mutation mutations[] = {
 static void test_mutations(void **state)
 {
     (void)state;
-    for (size_t i = 0; i < sizeof mutations / sizeof mutations[0]; i++) {
-        qmc_msg m;
-        build(mutations[i].type, EXAMPLE, &m);
-        proto_check_mutation(&m, &mutations[i], frame, sizeof frame);
-    }
+    proto_check_mutations(mutations, sizeof mutations / sizeof mutations[0], build, EXAMPLE,
+                          frame, sizeof frame);
 }
 
 /* ---- the encoder's refusals ---------------------------------------------------------- */

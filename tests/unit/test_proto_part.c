@@ -54,11 +54,8 @@ static const mutation mutations[] = {
 static void test_mutations(void **state)
 {
     (void)state;
-    for (size_t i = 0; i < sizeof mutations / sizeof mutations[0]; i++) {
-        qmc_msg m;
-        proto_part_build(mutations[i].type, PROTO_PART_EXAMPLE, &m);
-        proto_check_mutation(&m, &mutations[i], frame, sizeof frame);
-    }
+    proto_check_mutations(mutations, sizeof mutations / sizeof mutations[0], proto_part_build,
+                          PROTO_PART_EXAMPLE, frame, sizeof frame);
 }
 
 static void refuse(const qmc_msg *m, const char *what)
