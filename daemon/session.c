@@ -790,6 +790,14 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     }
     if (!point_fits(c, m->request_id, s->spec.dims))
         return;
+    if (s->spec.part_p && qmcd_conn_version(c) < QMC_PROTO_VERSION_PARTS) {
+        /* Its answer, block sums, has no message before version 6. */
+        qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
+                        "session %llu is a part, whose answer needs protocol version %u; this "
+                        "connection chose %u", (unsigned long long)s->id,
+                        QMC_PROTO_VERSION_PARTS, qmcd_conn_version(c));
+        return;
+    }
     qmcd_sess_attach *old = s->a;
     if (old && old->c == c) {
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,
