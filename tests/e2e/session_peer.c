@@ -16,6 +16,11 @@
  *   session-peer steal ENDPOINT FILE         resume with FILE's ticket: prints
  *                                            the code and the message
  *   session-peer hostile ENDPOINT            NaN, Inf and 1e308 as values
+ *   session-peer part ENDPOINT K/P JOB...    a part session (protocol version
+ *                                            6): its sums must be libqmc's
+ *                                            in-process part's, bit for bit;
+ *                                            a refused open prints its code
+ *                                            and message (exit 0)
  *
  * JOB is `qmc integrate`'s: --integrand NAME --dims D --method M [--n N]
  * [--reps R] [--seed S] [--seq K] [--scramble S] [--split-net] [--tol-abs
@@ -377,6 +382,63 @@ static int cmd_steal(const char *endpoint, const char *file)
     return 0;
 }
 
+/* A part session's answer, here and through the daemon: the same. */
+static int cmd_part(const char *endpoint, const char *kp, job_args *j)
+{
+    qmc_session_spec ss;
+    session_spec(j, &ss);
+    char tail;
+    if (sscanf(kp, "%u/%u%c", &ss.part_k, &ss.part_p, &tail) != 2)
+        return fail("want K/P, not %s%s", kp, "");
+    qmc_client *c;
+    if (connect_to(endpoint, &c))
+        return 1;
+    qmc_client_session *s = NULL;
+    int r = qmc_client_session_open(c, &ss, &s);
+    if (r != 0) {
+        printf("refused %s: %s\n", qmc_err_name(r), qmc_client_last_error(c));
+        qmc_client_close(c);
+        return 0;
+    }
+    qmc_session_part_sums wire, here;
+    int rc = loop(c, s, j->f);
+    if (rc == 0 && (r = qmc_client_session_part(s, &wire)) != 0)
+        rc = fail("part: %s %s", qmc_err_name(r), qmc_client_last_error(c));
+    qmc_session *ls = NULL;
+    char why[256] = "";
+    if (rc == 0 && qmc_session_new(&ss, &ls, why, sizeof why) != 0)
+        rc = fail("in-process: %s%s", why, "");
+    for (;;) {
+        qmc_session_batch b;
+        static double v[1 << 16];
+        if (rc || qmc_session_ask(ls, &b) != 0 || b.count == 0)
+            break;
+        if (b.count > sizeof v / sizeof v[0]) {
+            rc = fail("a batch of %zu points%s", b.count, "");
+            break;
+        }
+        j->f->eval(j->f->ctx, b.points, b.count, b.dims, v);
+        if (qmc_session_tell(ls, b.seq, v, b.count, why, sizeof why) != 0)
+            rc = fail("in-process tell: %s%s", why, "");
+    }
+    if (rc == 0 && qmc_session_part(ls, &here) != 0)
+        rc = fail("in-process part failed%s%s", "", "");
+    if (rc == 0 &&
+        (wire.fingerprint != here.fingerprint || wire.blocks != here.blocks ||
+         wire.first != here.first || wire.count != here.count ||
+         memcmp(&wire.sampling, &here.sampling, sizeof here.sampling) != 0 ||
+         (here.count && memcmp(wire.sums, here.sums, here.count * sizeof *here.sums) != 0)))
+        rc = fail("part %s through the daemon differs from in-process%s", kp, "");
+    if (rc == 0)
+        printf("part %s: blocks %llu, first %llu, count %llu: the in-process sums\n", kp,
+               (unsigned long long)wire.blocks, (unsigned long long)wire.first,
+               (unsigned long long)wire.count);
+    qmc_session_free(ls);
+    qmc_client_session_free(s);
+    qmc_client_close(c);
+    return rc;
+}
+
 /* Values a caller may send that no integrand should: NaN, infinities, a
  * finite 1e308 whose square overflows.  qmcd counts and flags them. */
 static int cmd_hostile(const char *endpoint)
@@ -434,14 +496,16 @@ static int cmd_hostile(const char *endpoint)
 int main(int argc, char **argv)
 {
     if (argc < 3)
-        return fail("usage: session-peer run|asktell|drop|resume|steal|hostile ENDPOINT ...%s%s",
+        return fail("usage: session-peer run|asktell|drop|resume|steal|hostile|part ENDPOINT "
+                    "...%s%s",
                     "", "");
     const char *cmd = argv[1], *endpoint = argv[2];
     if (strcmp(cmd, "hostile") == 0)
         return cmd_hostile(endpoint);
     if (strcmp(cmd, "steal") == 0)
         return argc == 4 ? cmd_steal(endpoint, argv[3]) : fail("steal ENDPOINT FILE%s%s", "", "");
-    int file_arg = strcmp(cmd, "drop") == 0 || strcmp(cmd, "resume") == 0;
+    int file_arg = strcmp(cmd, "drop") == 0 || strcmp(cmd, "resume") == 0 ||
+                   strcmp(cmd, "part") == 0; /* part's K/P stands where the file would */
     if (argc < 3 + file_arg)
         return fail("%s needs a file%s", cmd, "");
     job_args j;
@@ -456,6 +520,8 @@ int main(int argc, char **argv)
         rc = cmd_drop(endpoint, argv[3], &j);
     else if (strcmp(cmd, "resume") == 0)
         rc = cmd_resume(endpoint, argv[3], &j);
+    else if (strcmp(cmd, "part") == 0)
+        rc = cmd_part(endpoint, argv[3], &j);
     else
         rc = fail("unknown command %s%s", cmd, "");
     qmc_job_free(j.job);

@@ -19,10 +19,19 @@
 #      both ways.
 #   4. An oversized part (its block sums past max-sessions-memory-per-peer)
 #      gets one clear line and exit 2, and the daemon serves on.
-# Env: QMC, QMCD.  Needs /usr/bin/python3 with numpy.  Prints "N passed, M failed".
+#   5. Through libqmcclient's API (tests/e2e/session_peer.c) with built-in
+#      integrands: a part's sums (qmc_client_session_part) are libqmc's
+#      in-process qmc_session_part, bit for bit, over unix: and tcp:; the
+#      parts no CLI would send - k > p, 0/p, a tolerance, a rule, a budget
+#      past its budget - are refused with the core's reason (0/p once
+#      made the daemon size it as 2^64 bytes); and on a
+#      connection that chose version 5 (sessionpeer.py) a part is refused
+#      with ENOTSUP naming version 6.
+# Env: QMC, QMCD, BUILD (for build/tests/session-peer).  Needs /usr/bin/python3 with numpy.  Prints "N passed, M failed".
 set -u
 : "${QMC:?set QMC to the qmc binary}"
 : "${QMCD:?set QMCD to the qmcd binary}"
+: "${BUILD:?BUILD must name the build directory}"
 . "$(dirname "$0")/lib.sh"
 PY=/usr/bin/python3
 T="timeout 300"
@@ -180,5 +189,36 @@ timeless "$tmp/s.r" > "$tmp/rt"
 timeless "$tmp/l3.2" > "$tmp/lt"
 if grep -q '^sums ' "$tmp/rt" && cmp -s "$tmp/lt" "$tmp/rt"; then ok
 else bad "a part after the refusal differs from in-process"; fi
+
+# ---- 5. the client API, hostile parts, version 5 -------------------------------------------
+PEER="$BUILD/tests/session-peer"
+G="--integrand genz-gaussian --dims 3"
+for c in "$U 2/3 $G --method rqmc --n 4096 --reps 16 --seed 7" \
+         "$tcp 3/3 $G --method rqmc --n 4096 --reps 16 --seed 7" \
+         "$U 1/1 $G --method mc --n 10000 --seed 2" \
+         "$U 4/5 $G --method lhs --n 9000 --reps 3" \
+         "$U 2/2 $G --method rqmc --n 8192 --reps 8 --max-batch 256"; do
+    # shellcheck disable=SC2086
+    set -- $c
+    ep=$1 kp=$2
+    shift 2
+    if "$PEER" part "$ep" "$kp" "$@" > "$tmp/p.out" 2> "$tmp/p.err" &&
+       grep -q "^part $kp: .*: the in-process sums$" "$tmp/p.out"; then ok
+    else bad "session-peer part $kp $*: $(cat "$tmp/p.out" "$tmp/p.err")"; fi
+done
+refused() { # CODE TEXT K/P JOB...: the open is refused with CODE and TEXT
+    code=$1 text=$2 kp=$3
+    shift 3
+    "$PEER" part "$U" "$kp" "$@" > "$tmp/p.out" 2> "$tmp/p.err"
+    if grep -q "^refused QMC_$code: .*$text" "$tmp/p.out"; then ok
+    else bad "part $kp $* not refused with $code ($text): $(cat "$tmp/p.out" "$tmp/p.err")"; fi
+}
+refused EINVAL "is not k/p with 1 <= k <= p" 3/2 $G --method rqmc
+refused EINVAL "is not k/p with 1 <= k <= p" 0/2 $G --method rqmc
+refused EINVAL "with a fixed n: no tolerance" 1/2 $G --method rqmc --tol-rel 1e-3
+refused EINVAL "a part needs a sampling method" 1/2 $G --method cubature
+refused EBUDGET "exceed the budget" 1/2 $G --method mc --n 100000 --max-evals 1000
+"$PY" "$(dirname "$0")/sessionpeer.py" part5 "$U" > "$tmp/peer.out" 2>&1
+tally "$tmp/peer.out" || bad "sessionpeer.py part5 printed no check"
 
 finish
