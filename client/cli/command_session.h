@@ -1,7 +1,7 @@
 /*
  * command_session.h - the session behind `qmc integrate --command`
  * (private to the CLI): libqmc's in-process qmc_session, or one on a qmcd
- * daemon through libqmcclient's qmc_client_session, behind the same five
+ * daemon through libqmcclient's qmc_client_session, behind the same six
  * calls, so that the loop that feeds PROGRAM (integrate_command.c) does
  * not know where the integrator runs.  Both give the same bytes, a
  * part's block sums included.
