@@ -27,6 +27,8 @@
 #      made the daemon size it as 2^64 bytes); and on a
 #      connection that chose version 5 (sessionpeer.py) a part is refused
 #      with ENOTSUP naming version 6.
+#   6. A part session whose client went after its last batch, before its
+#      sums, is resumed: done, its sums whole and libqmc's.
 # Env: QMC, QMCD, BUILD (for build/tests/session-peer).  Needs /usr/bin/python3 with numpy.  Prints "N passed, M failed".
 set -u
 : "${QMC:?set QMC to the qmc binary}"
@@ -220,5 +222,21 @@ refused EINVAL "a part needs a sampling method" 1/2 $G --method cubature
 refused EBUDGET "exceed the budget" 1/2 $G --method mc --n 100000 --max-evals 1000
 "$PY" "$(dirname "$0")/sessionpeer.py" part5 "$U" > "$tmp/peer.out" 2>&1
 tally "$tmp/peer.out" || bad "sessionpeer.py part5 printed no check"
+
+# ---- 6. a finished part resumed ------------------------------------------------------------
+# The client drops its connection after its last batch, before the sums:
+# 8192 blocks are 5 MB of them, more than the daemon's smallest output
+# buffer (2 MiB) and the socket's together, so the session cannot have
+# sent them all and is parked; resumed, it is done and sends them whole.
+start tiny --listen "unix:$tmp/tiny.sock" --out-buffer-bytes 2097152 || finish
+R="$G --method rqmc --n 2097152 --reps 16 --seed 3"
+# shellcheck disable=SC2086
+"$PEER" partdrop "unix:$tmp/tiny.sock" "$tmp/ticket" 1/1 $R > "$tmp/p.out" 2> "$tmp/p.err"
+# shellcheck disable=SC2086
+if grep -q "^dropped part 1/1" "$tmp/p.out" &&
+   "$PEER" partresume "unix:$tmp/tiny.sock" "$tmp/ticket" 1/1 $R > "$tmp/p.out" 2> "$tmp/p.err" &&
+   grep -q "^part 1/1: blocks 8192, first 0, count 8192: the in-process sums$" "$tmp/p.out"
+then ok
+else bad "a finished part resumed: $(cat "$tmp/p.out" "$tmp/p.err")"; fi
 
 finish
