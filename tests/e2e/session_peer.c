@@ -284,6 +284,21 @@ static int cmd_asktell(const char *endpoint, job_args *j)
     return rc;
 }
 
+/* FILE: the session's id and token, the batch dropped (seq, count and a
+ * digest of its points), as read_ticket reads them. */
+static int write_ticket(const char *file, const qmc_client_session_ticket *t,
+                        unsigned long long seq, size_t count, unsigned long long dig)
+{
+    FILE *out = fopen(file, "w");
+    if (!out)
+        return fail("cannot write %s%s", file, "");
+    fprintf(out, "%llu ", (unsigned long long)t->session_id);
+    for (size_t i = 0; i < sizeof t->token; i++)
+        fprintf(out, "%02x", t->token[i]);
+    fprintf(out, " %llu %zu %016llx\n", seq, count, dig);
+    return fclose(out) == 0 ? 0 : fail("cannot write %s%s", file, "");
+}
+
 static int cmd_drop(const char *endpoint, const char *file, job_args *j)
 {
     qmc_client *c;
@@ -304,15 +319,8 @@ static int cmd_drop(const char *endpoint, const char *file, job_args *j)
         return fail("drop: %s%s", qmc_client_last_error(c), "");
     qmc_client_session_ticket t;
     qmc_client_session_ticket_get(s, &t);
-    FILE *out = fopen(file, "w");
-    if (!out)
-        return fail("cannot write %s%s", file, "");
-    fprintf(out, "%llu ", (unsigned long long)t.session_id);
-    for (size_t i = 0; i < sizeof t.token; i++)
-        fprintf(out, "%02x", t.token[i]);
-    fprintf(out, " %llu %zu %016llx\n", (unsigned long long)b.seq, b.count,
-            (unsigned long long)digest(b.points, b.count * b.dims));
-    fclose(out);
+    if (write_ticket(file, &t, b.seq, b.count, digest(b.points, b.count * b.dims)))
+        return 1;
     printf("dropped session %llu at batch %llu (%zu points)\n",
            (unsigned long long)t.session_id, (unsigned long long)b.seq, b.count);
     fflush(stdout);
@@ -479,14 +487,8 @@ static int cmd_part(const char *endpoint, const char *kp, const char *drop_file,
         if (drop_file && rep.end != QMC_SESSION_RUNNING) {
             qmc_client_session_ticket t;
             qmc_client_session_ticket_get(s, &t);
-            FILE *out = fopen(drop_file, "w");
-            if (!out)
-                return fail("cannot write %s%s", drop_file, "");
-            fprintf(out, "%llu ", (unsigned long long)t.session_id);
-            for (size_t i = 0; i < sizeof t.token; i++)
-                fprintf(out, "%02x", t.token[i]);
-            fprintf(out, " 0 0 0\n");
-            fclose(out);
+            if (write_ticket(drop_file, &t, 0, 0, 0)) /* no batch waits */
+                return 1;
             printf("dropped part %s after its last batch\n", kp);
             fflush(stdout);
             _exit(0);
