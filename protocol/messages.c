@@ -612,16 +612,13 @@ static void io_session_opened(qmc__io *io, qmc_msg *m)
     qmc__io_u64(io, &o->park_ms);
 }
 
-/* The data of a SESSION_BATCH or SESSION_VALUES: through the ring it is
- * in a slot, not in the frame (a decoded message has no data pointer);
- * inline it follows, len bytes. */
+/* SESSION_BATCH's or SESSION_VALUES' data: inline, len bytes follow;
+ * through the ring it is in a slot (a decoded message has no pointer). */
 static void io_ring_or_inline(qmc__io *io, int ring, const uint8_t **data, uint32_t len)
 {
-    if (!ring) {
+    if (!ring)
         qmc__io_blob(io, data, len);
-        return;
-    }
-    if (io->decode)
+    else if (io->decode)
         *data = NULL;
 }
 
