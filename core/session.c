@@ -91,10 +91,12 @@ static qmc_integrand declared(const qmc_session_spec *spec)
     return f;
 }
 
-/* A part's block count (whole job's blocks cut as --part does), or 0. */
+/* A part's block count (whole job's blocks cut as --part does), or 0 -
+ * also for a part that is not k/p, which qmc_session_new refuses (a
+ * server sizes a request before it opens it: k = 0 must not wrap). */
 static uint64_t part_blocks(const qmc_session_spec *spec)
 {
-    if (!spec->part_p)
+    if (!spec->part_p || spec->part_k == 0 || spec->part_k > spec->part_p)
         return 0;
     qmc_sampling_spec q;
     if (qmc__fixed_sampling_spec(&spec->integrate, spec->dims, &q, NULL, 0) != 0)

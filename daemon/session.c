@@ -3,8 +3,8 @@
  * 6.21; session.h): SESSION_OPEN, SESSION_VALUES, SESSION_RESUME and
  * SESSION_CLOSE, and the producer kind that answers a session's request -
  * SESSION_OPENED, each batch in pieces (inline, or through the client's
- * ring), a SESSION_REPORT after each batch's values, SESSION_RESULT or
- * ERROR at the end.
+ * ring), a SESSION_REPORT after each batch's values, a part's block sums
+ * (session_part.c), SESSION_RESULT or ERROR at the end.
  *
  * The producer (an attachment) points at the session; the session lives
  * in the registry (session_store.c) and outlives it: when the connection
@@ -318,6 +318,8 @@ static int sess_pump(qmcd_conn *c, qmcd_producer *p)
         return err ? QMCD_PUMP_FAILED : QMCD_PUMP_SENT;
     }
     if (s->finished) {
+        if (qmcd__sess_part_owed(s))
+            return qmcd__sess_part_pump(c, a); /* session_part.c */
         if (!small_room)
             return QMCD_PUMP_NO_ROOM;
         return send_end(c, a) == 0 ? QMCD_PUMP_DONE : QMCD_PUMP_FAILED;
@@ -383,9 +385,11 @@ static void home_batch(qmcd_sess *s)
 }
 
 /* Forgets the batch's pieces and values on the way: the next connection
- * is sent the batch again whole. */
+ * is sent the batch again whole (and a part's sums all again). */
 static void rewind_batch(qmcd_sess *s)
 {
+    s->part_head_sent = 0;
+    s->part_sent = 0;
     s->sent = 0;
     s->got = 0;
     s->n_pieces = 0;
@@ -535,10 +539,12 @@ static void on_open(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         !point_fits(c, m->request_id, o->spec.dims))
         return;
     qmc_session_spec spec = o->spec;
-    if (spec.part_p || spec.part_k) {
+    if ((spec.part_p || spec.part_k) && qmcd_conn_version(c) < QMC_PROTO_VERSION_PARTS) {
+        /* Its block sums have a message only from version 6 on. */
         qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
-                        "a session of a part (%u/%u): its block sums have no message yet; run "
-                        "parts in-process", spec.part_k, spec.part_p);
+                        "a session of a part (%u/%u) needs protocol version %u; this "
+                        "connection chose %u (offer %u in HELLO)", spec.part_k, spec.part_p,
+                        QMC_PROTO_VERSION_PARTS, qmcd_conn_version(c), QMC_PROTO_VERSION_PARTS);
         return;
     }
     if (spec.dims == 0 || spec.dims > QMC_SESSION_MAX_DIMS) {
@@ -785,6 +791,14 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         return;
     if (!point_fits(c, m->request_id, s->spec.dims))
         return;
+    if (s->spec.part_p && qmcd_conn_version(c) < QMC_PROTO_VERSION_PARTS) {
+        /* Its answer, block sums, has no message before version 6. */
+        qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
+                        "session %llu is a part, whose answer needs protocol version %u; this "
+                        "connection chose %u", (unsigned long long)s->id,
+                        QMC_PROTO_VERSION_PARTS, qmcd_conn_version(c));
+        return;
+    }
     qmcd_sess_attach *old = s->a;
     if (old && old->c == c) {
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,

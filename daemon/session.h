@@ -7,7 +7,8 @@
  *   session_store.c  the server-wide registry: ids, tokens, identities,
  *                    the caps, parking and expiry, the STATS gauges;
  *   session_step.c   moving the integrator on (qmc_session_new, _tell) on
- *                    the worker pool or, when cheap, on the loop thread.
+ *                    the worker pool or, when cheap, on the loop thread;
+ *   session_part.c   a part session's answer: its block sums (version 6).
  *
  * A session (sess) lives in the registry from SESSION_OPEN until it ends,
  * is closed or expires.  While a connection serves it, an attachment - a
@@ -99,6 +100,8 @@ struct qmcd_sess {
     /* What the attachment still owes its client, in this order. */
     int owe_opened, owe_report;
     int finished;                 /* the integrator ended: the result is owed */
+    int part_head_sent;           /* a part's SESSION_PART went out, and */
+    uint64_t part_sent;           /* this many of its block sums */
     int announced;                /* SESSION_OPENED went out: its client holds
                                      the token, so it is kept when parked */
     int64_t parked_ms;            /* when it was parked, 0 while attached */
@@ -156,6 +159,14 @@ int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
+
+/* ---- session_part.c ---------------------------------------------------------------- */
+
+/* 1 while a finished part session (no error) still owes its SESSION_PART
+ * or block sums. */
+int qmcd__sess_part_owed(const qmcd_sess *s);
+/* Queues the next of them on a's connection: a QMCD_PUMP_* status. */
+int qmcd__sess_part_pump(qmcd_conn *c, qmcd_sess_attach *a);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 

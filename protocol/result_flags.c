@@ -29,10 +29,11 @@
 #define RESULT_FLAGS_ALL (0u QMC_FLAG_MAP(FLAG_BIT))
 _Static_assert(RESULT_FLAGS_ALL == QMC_PROTO_RESULT_FLAGS_V3,
                "a result flag without a protocol version (PROTOCOL.md section 5)");
-/* Versions 4 (PIXELS), 5 (sessions) and 6 (the known integral of |f|)
- * added no flag bits: they define version 3's.  A new version must say
- * here which bits it defines. */
-_Static_assert(QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_KNOWN_ABS,
+/* Versions 4 (PIXELS), 5 (sessions) and 6 (the known integral of |f|,
+ * part sessions) added no flag bits: they define version 3's.  A new
+ * version must say here which bits it defines. */
+_Static_assert(QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_KNOWN_ABS &&
+               QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_PARTS,
                "a protocol version without its result flag bits");
 _Static_assert((QMC_PROTO_RESULT_FLAGS_V1 & QMC_FLAG_ERROR_UNRELIABLE) != 0,
                "the oldest version must carry error_unreliable");

@@ -16,7 +16,8 @@
  * the known integral of |f| (section 6.10): encoded for such a version the
  * message is the frame without those 16 bytes, read back as "not told".
  * The session messages keep the bounds their receivers rely on (section
- * 6.21).  Decoding must
+ * 6.21), and a part's (6.22): its blocks are the ones part k/p cuts, its
+ * sums records fit a block and read back through qmc_proto_part_sums_at.  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
  * The codec sources are compiled in here (with the fuzzer's coverage
@@ -32,6 +33,7 @@
 #include "../../protocol/fields.c"
 #include "../../protocol/known_abs.c"
 #include "../../protocol/messages.c"
+#include "../../protocol/messages_part.c"
 #include "../../protocol/result_flags.c"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -100,6 +102,29 @@ static int session_bounds_hold(const qmc_msg *m)
     case QMC_MSG_SESSION_RESUME:
         return m->u.session_ref.transport == QMC_TRANSPORT_INLINE ||
                m->u.session_ref.transport == QMC_TRANSPORT_SHM;
+    case QMC_MSG_SESSION_PART: {
+        const qmc_msg_session_part *p = &m->u.session_part;
+        return p->blocks >= 1 && p->blocks <= QMC_SAMPLING_MAX_BLOCKS && p->part_k >= 1 &&
+               p->part_k <= p->part_p && p->first == p->blocks * (p->part_k - 1) / p->part_p &&
+               p->first + p->count == p->blocks * p->part_k / p->part_p;
+    }
+    case QMC_MSG_SESSION_PART_SUMS: {
+        const qmc_msg_session_part_sums *p = &m->u.part_sums;
+        if (p->n == 0 || p->n > QMC_PROTO_PART_MAX_SUMS || p->raw == NULL ||
+            p->first + p->n > QMC_SAMPLING_MAX_BLOCKS)
+            return 0;
+        for (uint32_t i = 0; i < p->n; i++) {
+            qmc_sampling_sums s;
+            qmc_proto_part_sums_at(p, i, &s);
+            if (s.block != p->first + i || s.count > QMC_SAMPLING_BLOCK ||
+                s.nonfinite > s.count || !(s.top[QMC_SAMPLING_TOP - 1] >= 0.0))
+                return 0;
+            for (int k = 1; k < QMC_SAMPLING_TOP; k++)
+                if (!(s.top[k] <= s.top[k - 1]))
+                    return 0;
+        }
+        return 1;
+    }
     default:
         return 1;
     }
