@@ -163,28 +163,63 @@ static uint64_t group_end(const qmc_session *s, const qmc_sampling_job *job, uin
     return j;
 }
 
+/* Whether job evaluates the session's integrand itself (not through a
+ * wrapper such as auto's VEGAS map, which changes the points and the
+ * values): then the passes need not call it. */
+static int own_integrand(const qmc_session *s, const qmc_sampling_job *job)
+{
+    return job->f->eval == session_eval && job->f->ctx == s && !job->g;
+}
+
 /* The collect pass over blocks [first, first + count): their points into
- * s->collect, s->fill of them; a pass that does not fill exactly `points`
- * is an overrun. */
+ * s->collect, s->fill of them - made straight there when the job's f is
+ * the session's own (the points block_pass would hand it), else by
+ * calling f in MODE_COLLECT. */
 static int collect(qmc_session *s, const qmc_sampling_job *job, uint64_t first, uint64_t count)
 {
-    s->mode = MODE_COLLECT;
     s->fill = 0;
+    if (own_integrand(s, job)) {
+        for (uint64_t b = 0; b < count; b++) {
+            const uint64_t n = qmc__sampling_block_points(job, first + b);
+            if (s->fill + n > s->max_batch)
+                return QMC_EINVAL; /* group_end keeps within: cannot happen */
+            int err = qmc__sampling_block_fill(job, first + b, s->collect + s->fill * job->dims);
+            if (err)
+                return err;
+            s->fill += n;
+        }
+        return 0;
+    }
+    s->mode = MODE_COLLECT;
     int err = run_pass(s, job, first, count, NULL);
     s->mode = MODE_DIRECT;
     return err;
 }
 
-/* The replay pass: the blocks' sums from the values at src, in order. */
+/* The replay pass: the blocks' sums from the values at src, in order -
+ * taken as they are when the job's f is the session's own, else handed to
+ * f's calls in MODE_REPLAY. */
 static int replay(qmc_session *s, const qmc_sampling_job *job, uint64_t first, uint64_t count,
                   const double *src, size_t n, qmc_sampling_sums *out)
 {
-    s->mode = MODE_REPLAY;
     s->src = src;
     s->fill = n;
     s->cursor = 0;
-    int err = run_pass(s, job, first, count, out);
-    s->mode = MODE_DIRECT;
+    int err = 0;
+    if (own_integrand(s, job)) {
+        for (uint64_t b = 0; b < count && !err; b++) {
+            const uint64_t m = qmc__sampling_block_points(job, first + b);
+            if (s->cursor + m > n)
+                return QMC_EINVAL;
+            err = qmc__sampling_sum_block(job, first + b, src + s->cursor, s->ws, s->ws_bytes,
+                                          &out[b]);
+            s->cursor += m;
+        }
+    } else {
+        s->mode = MODE_REPLAY;
+        err = run_pass(s, job, first, count, out);
+        s->mode = MODE_DIRECT;
+    }
     if (!err && s->cursor != n)
         s->overrun = 1;
     return err;

@@ -287,6 +287,35 @@ static void send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot)
     s->sent = s->batch.count;
 }
 
+/*
+ * The step came back behind (told ahead, session_step.c): the next batch is
+ * handed out, the values just told are not summed yet.  The report and the
+ * batch go to the socket now - in its ring slot, or inline as far as the
+ * output buffer takes its pieces (the pump sends the rest) - and the sums
+ * are done after, here, while the client evaluates the batch: on a machine
+ * with a core for each, the two overlap (docs/SESSIONS.md, "Telling
+ * ahead").  Still inside the values' handler, so the values are where the
+ * step read them (the frame, or the ring slot, which the client cannot get
+ * back before the handler returns).  The report's running estimate rests
+ * on the batches summed before; the next report's takes this one in.
+ */
+static void send_ahead(qmcd_conn *c, qmcd_sess *s)
+{
+    qmcd_sess_attach *a = s->a;
+    if (a && s->owe_report && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE / 2) {
+        qmc_msg r;
+        s->owe_report = 0;
+        report_of(s, &r, a->p.request_id);
+        if (qmcd_conn_send(c, &r) != 0)
+            a = NULL;
+    }
+    while (a && !s->owe_report && s->have_batch && s->sent < s->batch.count &&
+           QMCD_PUMP_STATUS(send_piece(c, a)) == QMCD_PUMP_SENT)
+        ;
+    qmcd_conn_send_now(c);
+    qmcd__sess_catch_up(s);
+}
+
 /* ---- the producer ----------------------------------------------------------------------- */
 
 static int sess_pump(qmcd_conn *c, qmcd_producer *p)
@@ -765,6 +794,8 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     step_done(s, 0); /* the connection pumps after this request */
     if (next && s->a && !s->stepping && s->have_batch && s->batch.points == next)
         send_in_slot(c, s->a, slot);
+    if (s->core && qmc_session_behind(s->core))
+        send_ahead(c, s);
 }
 
 static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)

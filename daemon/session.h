@@ -156,6 +156,11 @@ int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
+/* A step run at once is told ahead: it may come back behind, its next
+ * batch handed out before its values are summed.  Sums them now, on the
+ * loop (the values must still be where the step read them), once that
+ * batch is on its way; a no-op when not behind. */
+void qmcd__sess_catch_up(qmcd_sess *s);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 
