@@ -12,20 +12,26 @@
  * The sampling engine calls the integrand once per chunk of 256 points,
  * which would make batches of 256.  So the session hands qmc_integrate a
  * block runner (qmc_block_runner, as the daemon's and the CLI's thread
- * pools are) and runs each group of whole blocks twice: first with the
- * integrand copying the points into the batch and answering 0
- * (MODE_COLLECT), summing nothing, then, once the caller has answered
- * the whole batch, with the integrand answering from
- * the values in order (MODE_REPLAY).  A block's points and the order of its
+ * pools are) and runs each group of whole blocks twice: first collecting
+ * the points into the batch, summing nothing, then, once the caller has
+ * answered the whole batch, summing the values in order.  When the job's
+ * f is the session's own, the first pass makes each block's points
+ * straight into the batch (qmc__sampling_block_fill) and the second sums
+ * the caller's values as given (qmc__sampling_sum_block: no point made
+ * again, no call); when a wrapper stands between (auto's VEGAS map, which
+ * moves the points and weighs the values), both passes call the job's f,
+ * the session's integrand copying the points (MODE_COLLECT) and answering
+ * from the values (MODE_REPLAY).  A block's points and the order of its
  * integrand calls depend only on the job and the block (never on the
- * values: sampling.c evaluates every point of a block in a fixed order), so
- * the second pass sees exactly the points the first collected, and its
+ * values: sampling.c evaluates every point of a block in a fixed order),
+ * so the second pass sees exactly the points the first collected, and its
  * sums are those of a plain run: the bytes of every result are unchanged,
- * whatever the batch size.  The price is generating a group's points
- * twice (measured in bench/bench_session.c).
+ * whatever the batch size.  The next group is collected before the told
+ * one is summed, and a tell ahead returns between the two
+ * (session_runner).
  *
- * Must not: touch the caller's buffers (tell copies), allocate per batch,
- * or change what an integrator computes.
+ * Must not: write the caller's buffers (values are read where tell found
+ * them), allocate per batch, or change what an integrator computes.
  */
 #include <stdlib.h>
 #include <string.h>
