@@ -6,8 +6,10 @@
  * and printed), so that the session's own work shows: its fiber switches
  * (two swapcontext calls, each with a sigprocmask system call, per batch)
  * and, for the sampling methods, the collect pass that assembles whole
- * blocks into one batch (session_run.c: every block's points are made
- * twice).  Each row times REPS whole integrations each way, alternating
+ * blocks into one batch (session_run.c: one fill a block into the batch;
+ * behind a VEGAS map the points are made twice).  The integrand and the
+ * clock are session_common.c's, shared with bench_session_wire.c.  Each
+ * row times REPS whole integrations each way, alternating
  * the two so that both see the same load on a shared machine, and keeps
  * the fastest of each (the least disturbed: the noise here is other
  * processes, which only ever add time).
