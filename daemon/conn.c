@@ -331,9 +331,8 @@ void qmcd_conn_fail(qmcd_conn *c, uint64_t request_id, int code, const char *fmt
 
 /* ---- writing ------------------------------------------------------------------- */
 
-/* Sends what is pending, as far as the socket takes it.  Returns 0 (all
- * sent, or the socket is full), or -1 with errno (0: send returned 0). */
-static int send_pending(qmcd_conn *c)
+/* Sends what is pending.  Returns 0, or -1 if the connection closed. */
+static int flush(qmcd_conn *c)
 {
     while (c->out_tail > c->out_head) {
         ssize_t n = send(c->w.fd, c->out + c->out_head, c->out_tail - c->out_head,
@@ -347,30 +346,9 @@ static int send_pending(qmcd_conn *c)
         }
         if (n < 0 && (errno == EAGAIN || errno == EINTR))
             return 0;
-        if (n == 0)
-            errno = 0;
+        qmcd_conn_close(c, n < 0 ? strerror(errno) : "send returned 0");
         return -1;
     }
-    return 0;
-}
-
-void qmcd_conn_send_now(qmcd_conn *c)
-{
-    /* A failure is left for the next flush, which closes: closing here
-     * would release producers under the handler that called us. */
-    if (!c->dead && !c->closing)
-        (void)send_pending(c);
-}
-
-/* Sends what is pending.  Returns 0, or -1 if the connection closed. */
-static int flush(qmcd_conn *c)
-{
-    if (send_pending(c) != 0) {
-        qmcd_conn_close(c, errno ? strerror(errno) : "send returned 0");
-        return -1;
-    }
-    if (c->out_tail > c->out_head)
-        return 0;
     c->out_head = c->out_tail = 0;
     c->stall_ms = 0;
     if (c->out_alloc > (256u << 10) && c->n_bulk == 0) {

@@ -62,13 +62,6 @@ void qmcd_conn_fail(qmcd_conn *c, uint64_t request_id, int code, const char *fmt
 /* Closes at once (no goodbye): peer gone or not reading. */
 void qmcd_conn_close(qmcd_conn *c, const char *why);
 
-/* Sends what is queued now, as far as the socket takes it without
- * waiting, from inside a request's handler that has more work to do after
- * its answer (a session's sums, which its client need not wait for).
- * Never closes the connection: a failed send is met again, and closes it,
- * at the next flush. */
-void qmcd_conn_send_now(qmcd_conn *c);
-
 /* Flushes output, produces more (results, chunks) and updates the epoll
  * interest.  Call after anything queued output, freed room, or finished
  * what a producer waited for (QMCD_WAIT_WORK). */

@@ -625,8 +625,6 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     step_done(s, 0); /* the connection pumps after this request */
     if (next && s->a && !s->stepping && s->have_batch && s->batch.points == next)
         qmcd__sess_send_in_slot(c, s->a, slot);
-    if (s->core && qmc_session_behind(s->core))
-        qmcd__sess_send_ahead(c, s);
 }
 
 static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)

@@ -9,7 +9,7 @@
  *   session_step.c   moving the integrator on (qmc_session_new, _tell) on
  *                    the worker pool or, when cheap, on the loop thread;
  *   session_send.c   the batches and reports on the way out (inline, ring
- *                    slots, told ahead).
+ *                    slots).
  *
  * A session (sess) lives in the registry from SESSION_OPEN until it ends,
  * is closed or expires.  While a connection serves it, an attachment - a
@@ -158,11 +158,7 @@ int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
-/* A step run at once is told ahead: it may come back behind, its next
- * batch handed out before its values are summed.  Sums them now, on the
- * loop (the values must still be where the step read them), once that
- * batch is on its way; a no-op when not behind. */
-void qmcd__sess_catch_up(qmcd_sess *s);
+
 
 /* ---- session_send.c ----------------------------------------------------------------- */
 
@@ -183,9 +179,6 @@ double *qmcd__sess_next_slot(qmcd_conn *c, const qmcd_sess *s, uint32_t *slot, s
 /* The step assembled the batch in ring slot `slot`: the report, and the
  * batch as one piece naming that slot, now. */
 void qmcd__sess_send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot);
-/* A step came back behind: the report and the next batch to the socket
- * now, then the told values summed (qmcd__sess_catch_up). */
-void qmcd__sess_send_ahead(qmcd_conn *c, qmcd_sess *s);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 

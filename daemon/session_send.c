@@ -1,9 +1,7 @@
 /*
  * session_send.c - how a session's batches and reports go out on its
  * connection (session.h): a batch in pieces, inline or through the
- * client's ring; a batch assembled straight into a ring slot; and, for a
- * step told ahead, the report and the next batch sent before the told
- * values are summed.
+ * client's ring, and a batch assembled straight into a ring slot.
  *
  * Must not: read sockets, reach into a connection's fields
  * (conn_services.h is the door), take values, or call into session.c
@@ -155,33 +153,3 @@ void qmcd__sess_send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot)
                                                  r->handed_total};
     s->sent = s->batch.count;
 }
-
-/*
- * The step came back behind (told ahead, session_step.c): the next batch is
- * handed out, the values just told are not summed yet.  The report and the
- * batch go to the socket now - in its ring slot, or inline as far as the
- * output buffer takes its pieces (the pump sends the rest) - and the sums
- * are done after, here, while the client evaluates the batch: on a machine
- * with a core for each, the two overlap (docs/SESSIONS.md, "Telling
- * ahead").  Still inside the values' handler, so the values are where the
- * step read them (the frame, or the ring slot, which the client cannot get
- * back before the handler returns).  The report's running estimate rests
- * on the batches summed before; the next report's takes this one in.
- */
-void qmcd__sess_send_ahead(qmcd_conn *c, qmcd_sess *s)
-{
-    qmcd_sess_attach *a = s->a;
-    if (a && s->owe_report && qmcd_conn_out_room(c) >= QMCD_OUT_RESERVE / 2) {
-        qmc_msg r;
-        s->owe_report = 0;
-        qmcd__sess_report_of(s, &r, a->p.request_id);
-        if (qmcd_conn_send(c, &r) != 0)
-            a = NULL;
-    }
-    while (a && !s->owe_report && s->have_batch && s->sent < s->batch.count &&
-           QMCD_PUMP_STATUS(qmcd__sess_send_piece(c, a)) == QMCD_PUMP_SENT)
-        ;
-    qmcd_conn_send_now(c);
-    qmcd__sess_catch_up(s);
-}
-

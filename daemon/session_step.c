@@ -78,11 +78,11 @@ static int sess_interrupt(void *ctx)
 /* One step, on whichever thread runs it; values: the batch's values
  * (s->vals, or where they arrived for a step run at once); next, when not
  * NULL, where the next batch of whole blocks is to be assembled (a ring
- * slot: qmc_session_tell_to), room for next_points points; ahead: told
- * ahead (qmc_session_tell_ahead: the step may end behind, with the next
- * batch handed out and these values still to be summed). */
-static void step(qmcd_sess *s, const double *values, double *next, size_t next_points,
-                 int ahead)
+ * slot: qmc_session_tell_to), room for next_points points.  Told whole,
+ * not ahead (qmc_session_tell_ahead): the report that follows must take
+ * this batch in (PROTOCOL.md 6.21; docs/SESSIONS.md says what telling
+ * ahead would need). */
+static void step(qmcd_sess *s, const double *values, double *next, size_t next_points)
 {
     const int64_t t0 = qmcd_now_us(), c0 = cpu_us();
     s->polls = 0;
@@ -94,16 +94,14 @@ static void step(qmcd_sess *s, const double *values, double *next, size_t next_p
                      ? -ECANCELED
                      : qmc_session_new(&s->spec, &s->core, s->why, sizeof s->why);
     } else {
-        int (*tell)(qmc_session *, uint64_t, const double *, size_t, double *, size_t, char *,
-                    size_t) = ahead ? qmc_session_tell_ahead : qmc_session_tell_to;
-        s->err = next ? tell(s->core, s->batch.seq, values, s->batch.count, next, next_points,
-                             s->why, sizeof s->why)
+        s->err = next ? qmc_session_tell_to(s->core, s->batch.seq, values, s->batch.count,
+                                            next, next_points, s->why, sizeof s->why)
                       : QMC_EINVAL;
         /* Without a buffer of its own to stand in for (a rule), or one too
          * small, the refusal took nothing: the session's own buffer then. */
         if (s->err == QMC_EINVAL)
-            s->err = tell(s->core, s->batch.seq, values, s->batch.count, NULL, 0, s->why,
-                          sizeof s->why);
+            s->err = qmc_session_tell(s->core, s->batch.seq, values, s->batch.count, s->why,
+                                      sizeof s->why);
     }
     s->last_step_us = cpu_us() - c0;
     s->compute_s += (double)(qmcd_now_us() - t0) / 1e6;
@@ -115,7 +113,7 @@ static void task_run(qmcd_pool_task *task)
     s->on_pool = 1;
     if (s->opening)
         s->pool_bytes = qmcd_pool_memory_keep(task); /* for the session's life */
-    step(s, s->vals, NULL, 0, 0);
+    step(s, s->vals, NULL, 0);
     s->on_pool = 0;
 }
 
@@ -160,32 +158,11 @@ int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *
     if (qmcd__sess_tell_now(s)) {
         s->stepping = 1;
         s->step_limit_ms = (int64_t)s->srv->cfg.job_time_limit_ms;
-        step(s, values ? values : s->vals, next, next_points, 1);
+        step(s, values ? values : s->vals, next, next_points);
         return 1;
     }
     submit(s, tenant, 0);
     return 0;
-}
-
-void qmcd__sess_catch_up(qmcd_sess *s)
-{
-    if (!s->core || !qmc_session_behind(s->core))
-        return;
-    const int64_t t0 = qmcd_now_us(), c0 = cpu_us();
-    qmc_session_catch_up(s->core);
-    /* One step's CPU time, both halves: whether the next runs here. */
-    s->last_step_us += cpu_us() - c0;
-    s->compute_s += (double)(qmcd_now_us() - t0) / 1e6;
-    qmc_session_batch b;
-    if (qmc_session_ask(s->core, &b) == 0 && b.count > 0)
-        return; /* waiting for the values of the batch handed out */
-    /* The sums failed (never seen): the end is owed, the batch handed out
-     * is void. */
-    s->have_batch = 0;
-    s->finished = 1;
-    s->err = qmc_session_result(s->core, &s->rep, s->why, sizeof s->why);
-    if (!s->err)
-        s->err = QMC_EINVAL;
 }
 
 void qmcd__sess_settle(qmcd_sess *s)
