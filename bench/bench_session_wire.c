@@ -17,9 +17,7 @@
  * client, values back), and the round trip (a frame each way, two
  * wake-ups); on a Unix socket the batch travels through the shared-memory
  * ring, over TCP inline.  The client evaluates into the ring slot itself
- * (qmc_client_session_values), as a real caller would.  The daemon tells
- * ahead (docs/SESSIONS.md): it sends batch k + 1 before it sums batch k,
- * so with a free core the sums overlap the client's evaluation.
+ * (qmc_client_session_values), as a real caller would.
  *
  * Rows: rqmc 16 x 65536 points in 4 dimensions by the largest batch, over
  * the Unix socket (1024 is below one block of 4096 points: the engine's
@@ -31,9 +29,8 @@
  * process's, and every thread of the daemon's from
  * /proc/PID/task/TID/schedstat, nanoseconds): what the session costs
  * whatever else the machine runs.  The load average before and after is
- * printed: with the two cores busy with other work the overlap cannot
- * happen and the wall ratio falls toward the CPU ratio.  A speed goal is
- * a ratio measured here, never asserted in a test.
+ * printed: the rows move with it.  A speed goal is a ratio measured here,
+ * never asserted in a test.
  */
 #define _GNU_SOURCE
 #include <errno.h>
