@@ -288,6 +288,18 @@ static int file_own(qmc_client *c, qmc_client_session *s, const qmc_msg *m)
             unpin(s);
             s->got = 0;
             s->state = ST_WAITING;
+            /* And go back now, once they are half the ring: a server that
+             * tells ahead sends the next batch right behind this report,
+             * so the buffer is never found empty with nothing pinned (when
+             * conn.c releases), and without this the ring would fill and
+             * every few batches wait for a release, and a copy, in turn.
+             * Every slot held is handled: this batch's and older ones (the
+             * next batch's frames come after this report). */
+            if (c->ring.held > c->ring.slots / 2 && !c->ring.pinned) {
+                int err = qmc__client_shm_release(c);
+                if (err)
+                    return err;
+            }
         }
         return 1;
     case QMC_MSG_SESSION_PART:
