@@ -266,10 +266,17 @@ $(BUILD)/bench/bench_integrate: bench/bench_integrate.c $(BENCH_INT_SRC) \
 	$(CC) $(CFLAGS) -O3 -Ibench -o $@ $< $(BENCH_INT_SRC) $(LIBQMC) -lgsl -lgslcblas \
 	  -lcubature $(LDLIBS)
 
-# A session through the daemon against qmc_integrate: a client of every layer.
-$(BUILD)/bench/bench_session_wire: bench/bench_session_wire.c $(ALL_LIBS)
+# The session benchmarks share their integrand and clock (session_common.c);
+# the one through the daemon is a client of every layer.
+BENCH_SESS := bench/session_common.c bench/session_common.h
+$(BUILD)/bench/bench_session: bench/bench_session.c $(BENCH_SESS) $(LIBQMC)
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) -O3 -o $@ $< $(ALL_LIBS) -pthread $(LDLIBS) $(LDFLAGS)
+	$(CC) $(CFLAGS) -O3 -Ibench -o $@ $< bench/session_common.c $(LIBQMC) $(LDLIBS)
+
+$(BUILD)/bench/bench_session_wire: bench/bench_session_wire.c $(BENCH_SESS) $(ALL_LIBS)
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) -O3 -Ibench -o $@ $< bench/session_common.c $(ALL_LIBS) -pthread $(LDLIBS) \
+	  $(LDFLAGS)
 
 # qmc-load, the daemon's load generator, speaks the protocol: every layer.
 QMC_LOAD := $(BUILD)/bench/qmc-load

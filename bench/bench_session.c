@@ -6,8 +6,10 @@
  * and printed), so that the session's own work shows: its fiber switches
  * (two swapcontext calls, each with a sigprocmask system call, per batch)
  * and, for the sampling methods, the collect pass that assembles whole
- * blocks into one batch (session_run.c: every block's points are made
- * twice).  Each row times REPS whole integrations each way, alternating
+ * blocks into one batch (session_run.c: one fill a block into the batch;
+ * behind a VEGAS map the points are made twice).  The integrand and the
+ * clock are session_common.c's, shared with bench_session_wire.c.  Each
+ * row times REPS whole integrations each way, alternating
  * the two so that both see the same load on a shared machine, and keeps
  * the fastest of each (the least disturbed: the noise here is other
  * processes, which only ever add time).
@@ -21,63 +23,30 @@
  *
  * Speed goals are ratios measured here, never asserted in a test.
  */
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "qmc/integrate.h"
 #include "qmc/session.h"
+#include "session_common.h"
 
 enum { REPS = 7, DIMS = 4 };
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* About 20 ns: one exp and one cos a point (in 1D an oscillating one,
- * which Gauss-Kronrod must bisect). */
-static double cheap(const double *x, uint32_t d)
-{
-    if (d == 1)
-        return exp(-x[0]) * cos(200.0 * x[0]);
-    double s = 0.0;
-    for (uint32_t j = 0; j < d; j++)
-        s += (0.3 + 0.1 * j) * x[j];
-    return exp(-x[0] * x[d - 1]) * cos(s);
-}
-
-static void cheap_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
-{
-    (void)ctx;
-    for (size_t i = 0; i < n; i++)
-        out[i] = cheap(x + i * dims, dims);
-}
-
-static volatile double sink;
-
-typedef struct run {
-    double seconds;
-    uint64_t evals, batches;
-    double estimate;
-} run;
+typedef bench_run run;
 
 static run integrate_once(const qmc_integrate_spec *is, uint32_t dims, qmc_smoothness sm)
 {
-    qmc_integrand f = {.eval = cheap_eval, .dims = dims, .smoothness = sm, .name = "cheap"};
+    qmc_integrand f = {.eval = bench_cheap_eval, .dims = dims, .smoothness = sm, .name = "cheap"};
     run r = {0};
     qmc_integrate_report rep;
     char why[256];
-    double t0 = now();
+    double t0 = bench_now();
     if (qmc_integrate(is, &f, NULL, NULL, NULL, &rep, why, sizeof why) != 0) {
         fprintf(stderr, "bench_session: qmc_integrate: %s\n", why);
         exit(1);
     }
-    r.seconds = now() - t0;
+    r.seconds = bench_now() - t0;
     r.evals = rep.res.evals;
     r.estimate = rep.res.estimate;
     return r;
@@ -93,7 +62,7 @@ static run session_once(const qmc_session_spec *ss)
     run r = {0};
     char why[256];
     qmc_session *s = NULL;
-    double t0 = now();
+    double t0 = bench_now();
     if (qmc_session_new(ss, &s, why, sizeof why) != 0) {
         fprintf(stderr, "bench_session: qmc_session_new: %s\n", why);
         exit(1);
@@ -109,7 +78,7 @@ static run session_once(const qmc_session_spec *ss)
             if (!vals)
                 exit(1);
         }
-        cheap_eval(NULL, b.points, b.count, b.dims, vals);
+        bench_cheap_eval(NULL, b.points, b.count, b.dims, vals);
         if (qmc_session_tell(s, b.seq, vals, b.count, why, sizeof why) != 0) {
             fprintf(stderr, "bench_session: tell: %s\n", why);
             exit(1);
@@ -122,7 +91,7 @@ static run session_once(const qmc_session_spec *ss)
         exit(1);
     }
     qmc_session_free(s);
-    r.seconds = now() - t0;
+    r.seconds = bench_now() - t0;
     r.evals = rep.res.evals;
     r.estimate = rep.res.estimate;
     return r;
@@ -133,11 +102,7 @@ static void measure(const qmc_integrate_spec *is, uint32_t dims, qmc_smoothness 
                     uint64_t max_batch, run *in, run *se)
 {
     qmc_session_spec ss;
-    qmc_session_spec_init(&ss);
-    ss.integrate = *is;
-    ss.dims = dims;
-    ss.smoothness = sm;
-    ss.max_batch = max_batch;
+    bench_session_spec(&ss, is, dims, sm, max_batch);
     for (int k = 0; k < REPS; k++) {
         run a = integrate_once(is, dims, sm), b = session_once(&ss);
         if (k == 0 || a.seconds < in->seconds)
@@ -149,28 +114,10 @@ static void measure(const qmc_integrate_spec *is, uint32_t dims, qmc_smoothness 
 
 static void same_or_die(const run *a, const run *b, const char *what)
 {
-    if (memcmp(&a->estimate, &b->estimate, sizeof a->estimate) != 0 || a->evals != b->evals) {
+    if (!bench_same(a, b)) {
         fprintf(stderr, "bench_session: %s: the session's answer differs\n", what);
         exit(1);
     }
-}
-
-static double integrand_ns(void)
-{
-    enum { N = 1 << 16 };
-    static double x[N * DIMS], out[N];
-    for (size_t i = 0; i < N * DIMS; i++)
-        x[i] = (double)((i * 2654435761u) % 1000003u) / 1000003.0;
-    double best = 0.0;
-    for (int k = 0; k < REPS; k++) {
-        double t0 = now();
-        for (int rep = 0; rep < 16; rep++)
-            cheap_eval(NULL, x, N, DIMS, out);
-        double t = (now() - t0) / (16.0 * N);
-        best = k == 0 || t < best ? t : best;
-        sink = out[N / 2];
-    }
-    return best * 1e9;
 }
 
 static void row(const char *what, uint64_t max_batch, const run *in, const run *se)
@@ -191,15 +138,12 @@ static void header(void)
 
 int main(void)
 {
-    printf("integrand: %.1f ns an evaluation (exp and cos, %d dims)\n\n", integrand_ns(), DIMS);
+    printf("integrand: %.1f ns an evaluation (exp and cos, %d dims)\n\n",
+           bench_integrand_ns(DIMS, REPS), DIMS);
 
     /* Table 1: rqmc, 16 replicates x 65536 points (256 blocks of 4096). */
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
-    is.sampling.n = 65536;
-    is.n_given = 1;
+    bench_rqmc_spec(&is);
     printf("rqmc, 16 x 65536 points, by the largest batch a session assembles\n");
     printf("(below one block, 4096 points, batches are the engine's chunks of 256)\n");
     header();

@@ -11,30 +11,29 @@
  * answers are the same bits, and stops the daemon by its pid.
  *
  * The integrand is cheap on purpose (about 20 ns an evaluation, measured
- * and printed: bench_session.c's), so what a session costs shows: per
- * batch the daemon's step (the collect pass that assembles the batch, the
- * replay of the values), the copies (points into the ring slot, values out
- * of it), and the round trip (a frame each way, two wake-ups); on a Unix
- * socket the batch travels through the shared-memory ring, over TCP
- * inline.  The client evaluates into the ring slot itself
+ * and printed: session_common.c's), so what a session costs shows: per
+ * batch the daemon's step (the points made into the batch, the sums of
+ * the values), the crossings (points into the ring slot and read by the
+ * client, values back), and the round trip (a frame each way, two
+ * wake-ups); on a Unix socket the batch travels through the shared-memory
+ * ring, over TCP inline.  The client evaluates into the ring slot itself
  * (qmc_client_session_values), as a real caller would.
  *
  * Rows: rqmc 16 x 65536 points in 4 dimensions by the largest batch, over
- * the Unix socket; 65536 over TCP too.  Columns: evaluations per second
- * in-process and through the daemon (wall time, fastest run), their ratio
- * (issue 21's goal: >= 0.5 at 64k-point batches over a Unix socket), the
- * time a batch costs beyond in-process, and per evaluation; then the same
- * ratio in CPU time summed over every run (this process's, and every
- * thread of the daemon's from /proc/PID/task/TID/schedstat, nanoseconds):
- * what the session costs whatever else the machine runs.  Client and
- * daemon take turns (one waits while the other works), so on an idle
- * machine the wall ratio approaches the CPU ratio less the wake-ups; on a
- * loaded one each wake-up may wait for a core.  A speed goal is a ratio
- * measured here, never asserted in a test.
+ * the Unix socket (1024 is below one block of 4096 points: the engine's
+ * own chunks of 256 are the batches); 65536 over TCP too.  Columns:
+ * evaluations per second in-process and through the daemon (wall time,
+ * fastest run), their ratio (issue 21's goal: >= 0.5 at 64k-point batches
+ * over a Unix socket), the time a batch costs beyond in-process, and per
+ * evaluation; then the same ratio in CPU time summed over every run (this
+ * process's, and every thread of the daemon's from
+ * /proc/PID/task/TID/schedstat, nanoseconds): what the session costs
+ * whatever else the machine runs.  The load average before and after is
+ * printed: the rows move with it.  A speed goal is a ratio measured here,
+ * never asserted in a test.
  */
 #define _GNU_SOURCE
 #include <errno.h>
-#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,33 +46,12 @@
 
 #include "qmc/client.h"
 #include "qmc/integrate.h"
+#include "session_common.h"
 
 enum { REPS = 15, DIMS = 4 };
 
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+typedef bench_run run;
 
-/* About 20 ns: one exp and one cos a point. */
-static double cheap(const double *x, uint32_t d)
-{
-    double s = 0.0;
-    for (uint32_t j = 0; j < d; j++)
-        s += (0.3 + 0.1 * j) * x[j];
-    return exp(-x[0] * x[d - 1]) * cos(s);
-}
-
-static void cheap_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
-{
-    (void)ctx;
-    for (size_t i = 0; i < n; i++)
-        out[i] = cheap(x + i * dims, dims);
-}
-
-static volatile double sink;
 static pid_t daemon_pid;
 
 /* CPU seconds of this process (all threads). */
@@ -109,30 +87,6 @@ static double daemon_cpu(void)
     return sum;
 }
 
-static double integrand_ns(void)
-{
-    enum { N = 1 << 16 };
-    static double x[N * DIMS], out[N];
-    for (size_t i = 0; i < N * DIMS; i++)
-        x[i] = (double)((i * 2654435761u) % 1000003u) / 1000003.0;
-    double best = 0.0;
-    for (int k = 0; k < REPS; k++) {
-        double t0 = now();
-        for (int rep = 0; rep < 16; rep++)
-            cheap_eval(NULL, x, N, DIMS, out);
-        double t = (now() - t0) / (16.0 * N);
-        best = k == 0 || t < best ? t : best;
-        sink = out[N / 2];
-    }
-    return best * 1e9;
-}
-
-typedef struct run {
-    double seconds;
-    uint64_t evals, batches;
-    double estimate;
-} run;
-
 static void die(const char *what, const char *why)
 {
     fprintf(stderr, "bench_session_wire: %s: %s\n", what, why);
@@ -143,26 +97,23 @@ static void die(const char *what, const char *why)
 
 static run in_process(const qmc_integrate_spec *is)
 {
-    qmc_integrand f = {.eval = cheap_eval, .dims = DIMS, .smoothness = QMC_SMOOTH_ANALYTIC};
+    qmc_integrand f = {
+        .eval = bench_cheap_eval, .dims = DIMS, .smoothness = QMC_SMOOTH_ANALYTIC};
     qmc_integrate_report rep;
     char why[256];
-    double t0 = now();
+    double t0 = bench_now();
     if (qmc_integrate(is, &f, NULL, NULL, NULL, &rep, why, sizeof why) != 0)
         die("qmc_integrate", why);
-    run r = {now() - t0, rep.res.evals, 0, rep.res.estimate};
+    run r = {bench_now() - t0, rep.res.evals, 0, rep.res.estimate};
     return r;
 }
 
 static run remote(qmc_client *c, const qmc_integrate_spec *is, uint64_t max_batch)
 {
     qmc_session_spec ss;
-    qmc_session_spec_init(&ss);
-    ss.integrate = *is;
-    ss.dims = DIMS;
-    ss.smoothness = QMC_SMOOTH_ANALYTIC;
-    ss.max_batch = max_batch;
+    bench_session_spec(&ss, is, DIMS, QMC_SMOOTH_ANALYTIC, max_batch);
     run r = {0};
-    double t0 = now();
+    double t0 = bench_now();
     qmc_client_session *s;
     if (qmc_client_session_open(c, &ss, &s) != 0)
         die("open", qmc_client_last_error(c));
@@ -173,7 +124,7 @@ static run remote(qmc_client *c, const qmc_integrate_spec *is, uint64_t max_batc
         if (b.count == 0)
             break;
         double *v = qmc_client_session_values(s);
-        cheap_eval(NULL, b.points, b.count, b.dims, v);
+        bench_cheap_eval(NULL, b.points, b.count, b.dims, v);
         if (qmc_client_session_tell(s, b.seq, v, b.count) != 0)
             die("tell", qmc_client_last_error(c));
         r.batches++;
@@ -182,7 +133,7 @@ static run remote(qmc_client *c, const qmc_integrate_spec *is, uint64_t max_batc
     if (qmc_client_session_result(s, &res) != 0)
         die("result", qmc_client_last_error(c));
     qmc_client_session_free(s);
-    r.seconds = now() - t0;
+    r.seconds = bench_now() - t0;
     r.evals = res.res.evals;
     r.estimate = res.res.estimate;
     return r;
@@ -212,7 +163,7 @@ static void measure(qmc_client *c, const char *how, const qmc_integrate_spec *is
         run b = remote(c, is, max_batch);
         cpu_in += c1 - c0;
         cpu_se += my_cpu() - c1 + daemon_cpu() - d1;
-        if (memcmp(&a.estimate, &b.estimate, sizeof a.estimate) != 0 || a.evals != b.evals)
+        if (!bench_same(&a, &b))
             die(how, "the session's answer differs from qmc_integrate's");
         if (k == 0 || a.seconds < in.seconds)
             in = a;
@@ -222,6 +173,18 @@ static void measure(qmc_client *c, const char *how, const qmc_integrate_spec *is
     row(how, max_batch, &in, &se, cpu_in / cpu_se);
     if (ratio)
         *ratio = in.seconds / se.seconds;
+}
+
+/* The machine's load average (/proc/loadavg), which says how far the
+ * daemon's sums could overlap the client's evaluation. */
+static void print_load(const char *when)
+{
+    FILE *f = fopen("/proc/loadavg", "r");
+    double l1 = 0;
+    if (f && fscanf(f, "%lf", &l1) == 1)
+        printf("load average %s: %.2f on %ld cores\n", when, l1, sysconf(_SC_NPROCESSORS_ONLN));
+    if (f)
+        fclose(f);
 }
 
 /* The daemon, on a scratch Unix socket and a loopback port. */
@@ -272,33 +235,37 @@ int main(int argc, char **argv)
     snprintf(unix_ep, sizeof unix_ep, "unix:%s/qmcd.sock", dir);
     pid_t pid = start_daemon(argv[1], dir, tcp, sizeof tcp);
     daemon_pid = pid;
-    qmc_client *u, *t;
-    if (qmc_client_connect(unix_ep, 60000, &u) != 0)
-        die(unix_ep, qmc_client_last_error(u));
+    qmc_client *t;
     if (qmc_client_connect(tcp, 60000, &t) != 0)
         die(tcp, qmc_client_last_error(t));
 
-    printf("integrand: %.1f ns an evaluation (exp and cos, %d dims)\n", integrand_ns(), DIMS);
+    printf("integrand: %.1f ns an evaluation (exp and cos, %d dims)\n",
+           bench_integrand_ns(DIMS, REPS), DIMS);
+    print_load("before");
     printf("rqmc, 16 x 65536 points, through qmcd (unix: the shared-memory ring; tcp: inline)\n"
            "against qmc_integrate in-process; fastest of %d runs each (cpu: the ratio in\n"
            "CPU time of all runs, this process and the daemon together)\n", REPS);
     printf("%-6s %9s %8s %9s %9s %6s %10s %8s %6s\n", "via", "max_batch", "batches",
            "Me/s in", "Me/s sess", "ratio", "us/batch", "ns/eval", "cpu");
     qmc_integrate_spec is;
-    qmc_integrate_spec_init(&is);
-    is.method = QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&is.sampling, QMC_SAMPLER_RQMC);
-    is.sampling.n = 65536;
-    is.n_given = 1;
-    const uint64_t sizes[] = {4096, 16384, 65536, 262144};
+    bench_rqmc_spec(&is);
+    const uint64_t sizes[] = {1024, 4096, 16384, 65536, 262144};
     double ratio64k = 0.0;
-    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        /* A connection a batch size: its ring is sized by its first
+         * session (libqmcclient attaches it then, for that session's
+         * batches), and a batch larger than the ring travels inline. */
+        qmc_client *u;
+        if (qmc_client_connect(unix_ep, 60000, &u) != 0)
+            die(unix_ep, qmc_client_last_error(u));
         measure(u, "unix", &is, sizes[i], sizes[i] == 65536 ? &ratio64k : NULL);
+        qmc_client_close(u);
+    }
     measure(t, "tcp", &is, 65536, NULL);
     printf("\nsession over a Unix socket / in-process at 64k-point batches: %.2f "
            "(issue 21's goal: >= 0.5)\n", ratio64k);
+    print_load("after");
 
-    qmc_client_close(u);
     qmc_client_close(t);
     kill(pid, SIGTERM);
     int st = 0;

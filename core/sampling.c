@@ -541,9 +541,12 @@ static size_t drop_nonfinite(double *fv, double *gv, size_t m)
 
 /* Block `block`: its points in index order, chunk by chunk, evaluated and
  * (out not NULL) summed into *out; with out NULL only evaluated, which
- * calls the integrands exactly as the summing pass does. */
+ * calls the integrands exactly as the summing pass does.  With given not
+ * NULL (a job without a control), f's values are taken from there in
+ * order instead of made: no point is made and f is not called, and the
+ * sums are those of a run whose f returned them. */
 static int block_pass(const qmc_sampling_job *job, uint64_t block, void *workspace,
-                      size_t workspace_bytes, qmc_sampling_sums *out)
+                      size_t workspace_bytes, const double *given, qmc_sampling_sums *out)
 {
     if (out) {
         memset(out, 0, sizeof *out);
@@ -566,10 +569,15 @@ static int block_pass(const qmc_sampling_job *job, uint64_t block, void *workspa
     memset(&acc, 0, sizeof acc);
     for (uint64_t i0 = first; i0 < end; i0 += job->chunk) {
         size_t m = end - i0 < job->chunk ? (size_t)(end - i0) : job->chunk;
-        int err = qmc_seq_fill(job->seqs[r], offset + i0, m, QMC_FORMAT_F64, x);
-        if (err)
-            return err;
-        job->f->eval(job->f->ctx, x, m, d, fv);
+        if (given) {
+            /* copied: dropping a non-finite value rewrites fv in place */
+            memcpy(fv, given + (i0 - first), m * sizeof *fv);
+        } else {
+            int err = qmc_seq_fill(job->seqs[r], offset + i0, m, QMC_FORMAT_F64, x);
+            if (err)
+                return err;
+            job->f->eval(job->f->ctx, x, m, d, fv);
+        }
         if (gv) {
             job->g->eval(job->g->ctx, x, m, d, gv);
             for (size_t k = 0; k < m; k++)
@@ -595,13 +603,35 @@ static int block_pass(const qmc_sampling_job *job, uint64_t block, void *workspa
 int qmc_sampling_run_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
                            size_t workspace_bytes, qmc_sampling_sums *out)
 {
-    return block_pass(job, block, workspace, workspace_bytes, out);
+    return block_pass(job, block, workspace, workspace_bytes, NULL, out);
 }
 
 int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
                              size_t workspace_bytes)
 {
-    return block_pass(job, block, workspace, workspace_bytes, NULL);
+    return block_pass(job, block, workspace, workspace_bytes, NULL, NULL);
+}
+
+int qmc__sampling_block_fill(const qmc_sampling_job *job, uint64_t block, double *dst)
+{
+    if (block >= qmc_sampling_blocks(job))
+        return QMC_ERANGE;
+    const uint32_t r = (uint32_t)(block / job->blocks_per_rep);
+    const uint64_t first = block % job->blocks_per_rep * QMC_SAMPLING_BLOCK;
+    const uint64_t offset = job->spec.split_net ? (uint64_t)r * job->spec.n : 0;
+    /* One fill for the whole block: a sequence's batch agrees bit for bit
+     * with any split of it (qmc_seq_fill's contract), so these are the
+     * points block_pass makes chunk by chunk. */
+    return qmc_seq_fill(job->seqs[r], offset + first, qmc__sampling_block_points(job, block),
+                        QMC_FORMAT_F64, dst);
+}
+
+int qmc__sampling_sum_block(const qmc_sampling_job *job, uint64_t block, const double *values,
+                            void *workspace, size_t workspace_bytes, qmc_sampling_sums *out)
+{
+    if (job->g || !values)
+        return QMC_EINVAL;
+    return block_pass(job, block, workspace, workspace_bytes, values, out);
 }
 
 const char *qmc_sampler_name(qmc_sampler s)

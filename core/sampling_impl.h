@@ -33,6 +33,20 @@ uint64_t qmc__sampling_block_points(const qmc_sampling_job *job, uint64_t block)
 int qmc__sampling_eval_block(const qmc_sampling_job *job, uint64_t block, void *workspace,
                              size_t workspace_bytes);
 
+/* The points block_pass hands f for block `block` (its
+ * qmc__sampling_block_points of them, row-major), written at dst in one
+ * fill: a session's collect pass when f is its own (session_run.c).
+ * QMC_ERANGE for a block past the job's, or the sequence's error. */
+int qmc__sampling_block_fill(const qmc_sampling_job *job, uint64_t block, double *dst);
+
+/* Block `block`'s sums from f's values at its points, given in order
+ * (values[0 .. block points)): the bytes qmc_sampling_run_block gives
+ * when f returns those values, without making a point or calling f - a
+ * session's replay.  QMC_EINVAL for a job with a control variate (its g
+ * values are not given); else as qmc_sampling_run_block. */
+int qmc__sampling_sum_block(const qmc_sampling_job *job, uint64_t block, const double *values,
+                            void *workspace, size_t workspace_bytes, qmc_sampling_sums *out);
+
 /*
  * The estimate from the first `done` blocks of a job still running
  * (sums[i].block == i): the job's own estimator on the work complete so

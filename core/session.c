@@ -91,10 +91,12 @@ static qmc_integrand declared(const qmc_session_spec *spec)
     return f;
 }
 
-/* A part's block count (whole job's blocks cut as --part does), or 0. */
+/* A part's block count (whole job's blocks cut as --part does), or 0 -
+ * also for a part that is not k/p, which qmc_session_new refuses (a
+ * server sizes a request before it opens it: k = 0 must not wrap). */
 static uint64_t part_blocks(const qmc_session_spec *spec)
 {
-    if (!spec->part_p)
+    if (!spec->part_p || spec->part_k == 0 || spec->part_k > spec->part_p)
         return 0;
     qmc_sampling_spec q;
     if (qmc__fixed_sampling_spec(&spec->integrate, spec->dims, &q, NULL, 0) != 0)
@@ -317,57 +319,116 @@ static int tell_check(qmc_session *s, uint64_t seq, const double *values, size_t
     return 0;
 }
 
-/* Takes the values and runs the integrator on to its next batch. */
-static void tell_run(qmc_session *s, const double *values, size_t count)
+/* How many of n values are NaN or infinite: an all-ones exponent, tested
+ * on the bits so that the loop vectorizes (isfinite's does not here). */
+static uint64_t count_nonfinite(const double *v, size_t n)
 {
-    /* memmove: a caller may hand back a buffer of its own that overlaps
-     * nothing of ours, but nothing stops it from passing ours. */
-    memmove(s->out, values, count * sizeof *values);
-    for (size_t i = 0; i < count; i++)
-        s->nonfinite += !isfinite(values[i]);
+    uint64_t bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t bits;
+        memcpy(&bits, &v[i], sizeof bits);
+        bad += (bits & 0x7ff0000000000000ull) == 0x7ff0000000000000ull;
+    }
+    return bad;
+}
+
+/* 1 when [p, p + n doubles) and [q, q + m doubles) share a byte.  Compared
+ * as integers: the buffers may be unrelated objects. */
+static int overlaps(const double *p, size_t n, const double *q, size_t m)
+{
+    const uintptr_t a = (uintptr_t)p, b = (uintptr_t)q;
+    return a < b + m * sizeof *q && b < a + n * sizeof *p;
+}
+
+/* Takes the values and runs the integrator on to its next batch (or, told
+ * early, until the next batch is handed out). */
+static void tell_run(qmc_session *s, const double *values, size_t count, int early)
+{
+    if (s->collected) {
+        /* A group of whole blocks is replayed from the caller's values
+         * where they are (read only, before tell returns, or before
+         * catch_up after a tell ahead) - unless they sit where the next
+         * group is collected, which would overwrite them first. */
+        s->src = values;
+        if (s->collect && overlaps(values, count, s->collect, s->max_batch * s->spec.dims)) {
+            memcpy(s->vals, values, count * sizeof *values);
+            s->src = s->vals;
+        }
+    } else {
+        /* memmove: a caller may hand back a buffer of its own that
+         * overlaps nothing of ours, but nothing stops it from passing ours. */
+        memmove(s->out, values, count * sizeof *values);
+    }
+    s->nonfinite += count_nonfinite(values, count);
     s->evals += count;
     s->batches++;
     s->seq++;
     s->pending = 0;
     s->served = 0;
+    s->early = early;
     qmc__fiber_resume(s->fiber);
+    s->early = 0;
     settle(s);
 }
 
-int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values, size_t count,
-                     char *why, size_t why_bytes)
+void qmc_session_catch_up(qmc_session *s)
 {
-    qmc__msg m;
-    qmc__msg_init(&m, why, why_bytes);
-    int err = tell_check(s, seq, values, count, &m);
-    if (err)
-        return err;
-    s->collect = s->buf;
-    tell_run(s, values, count);
-    return 0;
+    if (!s || !s->behind)
+        return;
+    qmc__fiber_resume(s->fiber); /* the replay, up to the wait for the next values */
+    settle(s);
 }
 
-int qmc_session_tell_to(qmc_session *s, uint64_t seq, const double *values, size_t count,
-                        double *next, size_t next_points, char *why, size_t why_bytes)
+int qmc_session_behind(const qmc_session *s)
+{
+    return s && s->behind;
+}
+
+/* tell, tell_to and tell_ahead: next NULL is the session's own buffer. */
+static int tell_common(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                       double *next, size_t next_points, int with_next, int early, char *why,
+                       size_t why_bytes)
 {
     qmc__msg m;
     qmc__msg_init(&m, why, why_bytes);
+    /* A tell ahead's values are summed first: the fiber waits there. */
+    qmc_session_catch_up(s);
     int err = tell_check(s, seq, values, count, &m);
     if (err)
         return err;
-    if (next && (!s->buf || next_points < s->max_batch)) {
+    if (with_next && next && (!s->buf || next_points < s->max_batch)) {
         qmc__msg_set(&m, "a batch buffer of ", next_points, " points; the session assembles ");
         qmc__msg_u64(&m, s->buf ? s->max_batch : 0);
         qmc__msg_str(&m, s->buf ? " at once" : " none");
         return QMC_EINVAL;
     }
     s->collect = next ? next : s->buf;
-    tell_run(s, values, count);
+    tell_run(s, values, count, early);
     return 0;
+}
+
+int qmc_session_tell(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                     char *why, size_t why_bytes)
+{
+    return tell_common(s, seq, values, count, NULL, 0, 0, 0, why, why_bytes);
+}
+
+int qmc_session_tell_to(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                        double *next, size_t next_points, char *why, size_t why_bytes)
+{
+    return tell_common(s, seq, values, count, next, next_points, 1, 0, why, why_bytes);
+}
+
+int qmc_session_tell_ahead(qmc_session *s, uint64_t seq, const double *values, size_t count,
+                           double *next, size_t next_points, char *why, size_t why_bytes)
+{
+    return tell_common(s, seq, values, count, next, next_points, 1, 1, why, why_bytes);
 }
 
 void qmc_session_own_batch(qmc_session *s)
 {
+    /* Values told ahead may sit in the buffer that goes: summed first. */
+    qmc_session_catch_up(s);
     if (!s || s->collect == s->buf)
         return;
     if (s->pending && s->points == s->collect) {

@@ -29,7 +29,19 @@ struct qmc_session {
     uint64_t seq;                 /* its number */
     const double *points;         /* count x dims */
     size_t count;
-    double *out;                  /* where its values go */
+    double *out;                  /* where its values go (MODE_DIRECT) */
+    int collected;                /* a group of whole blocks: its values are
+                                     replayed from src, not copied to out */
+    const double *src;            /* a collected batch's values: the caller's
+                                     (tell), or vals when they overlap a buffer
+                                     the session writes */
+
+    /* Telling ahead (qmc_session_tell_ahead, docs/SESSIONS.md): the next
+     * group is collected and handed out before this one is replayed. */
+    int early;                    /* the tell that resumed the fiber may
+                                     return before the replay */
+    int behind;                   /* it did: the fiber waits in the runner
+                                     to replay the told group (catch_up) */
 
     /* Batches assembled from whole blocks (sampling methods). */
     session_mode mode;
@@ -37,7 +49,8 @@ struct qmc_session {
     double *buf;                  /* max_batch x dims points */
     double *collect;              /* where batches are assembled: buf, or the
                                      caller's buffer of qmc_session_tell_to */
-    double *vals;                 /* max_batch values */
+    double *vals;                 /* max_batch values (src when the caller's
+                                     overlap the collect buffer) */
     size_t fill;                  /* points collected */
     size_t cursor;                /* values replayed */
     int overrun;                  /* a pass did not match the batch: a bug */

@@ -12,20 +12,26 @@
  * The sampling engine calls the integrand once per chunk of 256 points,
  * which would make batches of 256.  So the session hands qmc_integrate a
  * block runner (qmc_block_runner, as the daemon's and the CLI's thread
- * pools are) and runs each group of whole blocks twice: first with the
- * integrand copying the points into the batch and answering 0
- * (MODE_COLLECT), summing nothing, then, once the caller has answered
- * the whole batch, with the integrand answering from
- * the values in order (MODE_REPLAY).  A block's points and the order of its
+ * pools are) and runs each group of whole blocks twice: first collecting
+ * the points into the batch, summing nothing, then, once the caller has
+ * answered the whole batch, summing the values in order.  When the job's
+ * f is the session's own, the first pass makes each block's points
+ * straight into the batch (qmc__sampling_block_fill) and the second sums
+ * the caller's values as given (qmc__sampling_sum_block: no point made
+ * again, no call); when a wrapper stands between (auto's VEGAS map, which
+ * moves the points and weighs the values), both passes call the job's f,
+ * the session's integrand copying the points (MODE_COLLECT) and answering
+ * from the values (MODE_REPLAY).  A block's points and the order of its
  * integrand calls depend only on the job and the block (never on the
- * values: sampling.c evaluates every point of a block in a fixed order), so
- * the second pass sees exactly the points the first collected, and its
+ * values: sampling.c evaluates every point of a block in a fixed order),
+ * so the second pass sees exactly the points the first collected, and its
  * sums are those of a plain run: the bytes of every result are unchanged,
- * whatever the batch size.  The price is generating a group's points
- * twice (measured in bench/bench_session.c).
+ * whatever the batch size.  The next group is collected before the told
+ * one is summed, and a tell ahead returns between the two
+ * (session_runner).
  *
- * Must not: touch the caller's buffers (tell copies), allocate per batch,
- * or change what an integrator computes.
+ * Must not: write the caller's buffers (values are read where tell found
+ * them), allocate per batch, or change what an integrator computes.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -33,6 +39,20 @@
 #include "integrate_memory.h"
 #include "msg.h"
 #include "session_impl.h"
+
+/* Hands the caller count points: the batch it waits for from now on
+ * (collected: a group of whole blocks, whose values tell leaves at src;
+ * else they go to out). */
+static void hand_out(qmc_session *s, const double *points, size_t count, double *out,
+                     int collected)
+{
+    s->points = points;
+    s->count = count;
+    s->out = out;
+    s->collected = collected;
+    s->pending = 1;
+    s->served = 0;
+}
 
 /* Hands the caller count points and suspends until tell (or free) resumes
  * the fiber; out holds the values (zeros when the session is closing). */
@@ -42,11 +62,7 @@ static void ask_caller(qmc_session *s, const double *points, size_t count, doubl
         memset(out, 0, count * sizeof *out);
         return;
     }
-    s->points = points;
-    s->count = count;
-    s->out = out;
-    s->pending = 1;
-    s->served = 0;
+    hand_out(s, points, count, out, 0);
     qmc__fiber_yield(s->fiber);
     /* tell cleared pending and wrote out; free set closing instead */
     if (s->closing)
@@ -78,7 +94,7 @@ static void session_eval(const void *ctx, const double *x, size_t n, uint32_t di
             memset(out, 0, n * sizeof *out);
             return;
         }
-        memcpy(out, s->vals + s->cursor, n * sizeof *out);
+        memcpy(out, s->src + s->cursor, n * sizeof *out);
         s->cursor += n;
         return;
     case MODE_DIRECT:
@@ -140,6 +156,81 @@ static void update_running(qmc_session *s, const qmc_sampling_job *job,
     }
 }
 
+/* The end of the group of whole blocks from block i on (of count from
+ * first): at most max_batch points, *points of them; i itself when block i
+ * alone is larger. */
+static uint64_t group_end(const qmc_session *s, const qmc_sampling_job *job, uint64_t first,
+                          uint64_t i, uint64_t count, uint64_t *points)
+{
+    uint64_t j = i;
+    *points = 0;
+    while (j < count && *points + qmc__sampling_block_points(job, first + j) <= s->max_batch)
+        *points += qmc__sampling_block_points(job, first + j++);
+    return j;
+}
+
+/* Whether job evaluates the session's integrand itself (not through a
+ * wrapper such as auto's VEGAS map, which changes the points and the
+ * values): then the passes need not call it. */
+static int own_integrand(const qmc_session *s, const qmc_sampling_job *job)
+{
+    return job->f->eval == session_eval && job->f->ctx == s && !job->g;
+}
+
+/* The collect pass over blocks [first, first + count): their points into
+ * s->collect, s->fill of them - made straight there when the job's f is
+ * the session's own (the points block_pass would hand it), else by
+ * calling f in MODE_COLLECT. */
+static int collect(qmc_session *s, const qmc_sampling_job *job, uint64_t first, uint64_t count)
+{
+    s->fill = 0;
+    if (own_integrand(s, job)) {
+        for (uint64_t b = 0; b < count; b++) {
+            const uint64_t n = qmc__sampling_block_points(job, first + b);
+            if (s->fill + n > s->max_batch)
+                return QMC_EINVAL; /* group_end keeps within: cannot happen */
+            int err = qmc__sampling_block_fill(job, first + b, s->collect + s->fill * job->dims);
+            if (err)
+                return err;
+            s->fill += n;
+        }
+        return 0;
+    }
+    s->mode = MODE_COLLECT;
+    int err = run_pass(s, job, first, count, NULL);
+    s->mode = MODE_DIRECT;
+    return err;
+}
+
+/* The replay pass: the blocks' sums from the values at src, in order -
+ * taken as they are when the job's f is the session's own, else handed to
+ * f's calls in MODE_REPLAY. */
+static int replay(qmc_session *s, const qmc_sampling_job *job, uint64_t first, uint64_t count,
+                  const double *src, size_t n, qmc_sampling_sums *out)
+{
+    s->src = src;
+    s->fill = n;
+    s->cursor = 0;
+    int err = 0;
+    if (own_integrand(s, job)) {
+        for (uint64_t b = 0; b < count && !err; b++) {
+            const uint64_t m = qmc__sampling_block_points(job, first + b);
+            if (s->cursor + m > n)
+                return QMC_EINVAL;
+            err = qmc__sampling_sum_block(job, first + b, src + s->cursor, s->ws, s->ws_bytes,
+                                          &out[b]);
+            s->cursor += m;
+        }
+    } else {
+        s->mode = MODE_REPLAY;
+        err = run_pass(s, job, first, count, out);
+        s->mode = MODE_DIRECT;
+    }
+    if (!err && s->cursor != n)
+        s->overrun = 1;
+    return err;
+}
+
 /*
  * The block runner: groups of whole blocks of at most max_batch points,
  * each collected, handed to the caller as one batch and replayed.  A block
@@ -151,6 +242,17 @@ static void update_running(qmc_session *s, const qmc_sampling_job *job,
  * that array (a private guarantee of core/, written down at
  * qmc__sampling_run_blocks in sampling_impl.h).  A part's out is its own
  * array: no running estimate there.
+ *
+ * Once a group's values are in, the next group of this call (the blocks
+ * are known: a fixed job's whole range, an adaptive round's replicate) is
+ * collected and handed out before the told group is replayed; a tell
+ * ahead (s->early) returns to its caller between the two, so that the
+ * caller can send the next batch out first and replay while its client
+ * evaluates (catch_up resumes here).  The order of the two passes changes
+ * no sum: a block's points and calls depend on the job and the block only,
+ * and each group is replayed from its own values.  Nothing is collected
+ * past this call's blocks, so no batch is ever handed out that the
+ * integrator might not want.
  */
 static int session_runner(void *ctx, const qmc_sampling_job *job, uint64_t first,
                           uint64_t count, qmc_sampling_sums *out)
@@ -158,41 +260,64 @@ static int session_runner(void *ctx, const qmc_sampling_job *job, uint64_t first
     qmc_session *s = ctx;
     if (qmc_sampling_workspace_bytes(job) > s->ws_bytes)
         return QMC_EINVAL; /* sized from the dims at open: cannot happen */
-    uint64_t i = 0;
+    uint64_t i = 0, j = 0, points = 0;
+    int handed = 0; /* group [i, j) is handed out, its values awaited */
     while (i < count) {
         if (s->closing)
             return QMC_ECANCELED;
-        uint64_t j = i, points = 0;
-        while (j < count && points + qmc__sampling_block_points(job, first + j) <= s->max_batch)
-            points += qmc__sampling_block_points(job, first + j++);
-        int err;
-        if (j == i) { /* one block over max_batch: the engine's own chunks */
-            err = run_pass(s, job, first + i, 1, out + i);
-            j = i + 1;
-        } else {
-            s->mode = MODE_COLLECT;
-            s->fill = 0;
-            err = run_pass(s, job, first + i, j - i, NULL);
-            s->mode = MODE_DIRECT;
-            if (!err && s->fill != points)
-                s->overrun = 1;
-            if (!err && !s->overrun)
-                ask_caller(s, s->collect, s->fill, s->vals);
-            if (s->closing)
-                return QMC_ECANCELED;
-            s->mode = MODE_REPLAY;
-            s->cursor = 0;
-            if (!err && !s->overrun)
-                err = run_pass(s, job, first + i, j - i, out + i);
-            s->mode = MODE_DIRECT;
-            if (!err && s->cursor != s->fill)
-                s->overrun = 1;
+        int err = 0;
+        if (!handed) {
+            j = group_end(s, job, first, i, count, &points);
+            if (j == i) { /* one block over max_batch: the engine's own chunks */
+                err = run_pass(s, job, first + i, 1, out + i);
+                if (err)
+                    return err;
+                i++;
+                if (!s->spec.part_p)
+                    update_running(s, job, out - first, first + i);
+                continue;
+            }
+            err = collect(s, job, first + i, j - i);
+            if (err)
+                return err;
+            if (s->overrun || s->fill != points)
+                return QMC_EINVAL; /* the pass did not match the blocks: never seen */
+            hand_out(s, s->collect, s->fill, s->vals, 1);
         }
+        /* Wait for the values of [i, j) (tell clears pending; free sets
+         * closing). */
+        if (s->pending)
+            qmc__fiber_yield(s->fiber);
+        if (s->closing)
+            return QMC_ECANCELED;
+        const double *src = s->src;
+        const size_t n = s->count;
+        /* The next group, collected and handed out now. */
+        uint64_t k = j;
+        handed = 0;
+        if (j < count && (k = group_end(s, job, first, j, count, &points)) > j) {
+            err = collect(s, job, first + j, k - j);
+            if (err)
+                return err;
+            if (s->overrun || s->fill != points)
+                return QMC_EINVAL;
+            hand_out(s, s->collect, s->fill, s->vals, 1);
+            handed = 1;
+            if (s->early) { /* the tell returns now; catch_up resumes */
+                s->behind = 1;
+                qmc__fiber_yield(s->fiber);
+                s->behind = 0;
+                if (s->closing)
+                    return QMC_ECANCELED;
+            }
+        }
+        err = replay(s, job, first + i, j - i, src, n, out + i);
         if (!err && s->overrun)
             err = QMC_EINVAL; /* the two passes disagreed: never seen; refuse to guess */
         if (err)
             return err;
         i = j;
+        j = k;
         if (!s->spec.part_p)
             update_running(s, job, out - first, first + i);
     }

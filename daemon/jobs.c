@@ -30,6 +30,7 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <math.h>
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -453,6 +454,13 @@ static int answer(qmcd_conn *c, job *j)
         res->seconds = j->seconds;
         res->reference_kind = j->reference_kind;
         res->reference = j->reference_kind ? j->reference : 0;
+        /* Version 6 tells the integral of |f| the integrand knows, which
+         * `qmc integrate --json` judges errors against (none can be
+         * negative or infinite; the codec refuses those). */
+        const qmc_integrand *f = qmc_job_integrand(j->job);
+        res->has_known_abs = f->has_abs_integral && isfinite(f->abs_integral) &&
+                             f->abs_integral >= 0;
+        res->known_abs = res->has_known_abs ? f->abs_integral : 0;
         rc = qmcd_conn_send(c, &r);
     }
     if (rc == 0)

@@ -3,8 +3,8 @@
  * 6.21; session.h): SESSION_OPEN, SESSION_VALUES, SESSION_RESUME and
  * SESSION_CLOSE, and the producer kind that answers a session's request -
  * SESSION_OPENED, each batch in pieces (inline, or through the client's
- * ring), a SESSION_REPORT after each batch's values, SESSION_RESULT or
- * ERROR at the end.
+ * ring), a SESSION_REPORT after each batch's values, a part's block sums
+ * (session_part.c), SESSION_RESULT or ERROR at the end.
  *
  * The producer (an attachment) points at the session; the session lives
  * in the registry (session_store.c) and outlives it: when the connection
@@ -94,17 +94,6 @@ static uint64_t largest_batch(const qmc_session_spec *spec)
     return most;
 }
 
-/* Whole points in one inline piece: a chunk's bytes and the client's
- * max_frame bound it (0: not even one point fits). */
-static uint64_t inline_points(const qmcd_conn *c, uint32_t dims)
-{
-    uint64_t room = qmcd_conn_client_max_frame(c);
-    room = room > 44 ? room - 44 : 0; /* SESSION_BATCH's fixed fields */
-    if (room > QMC_PROTO_CHUNK_BYTES)
-        room = QMC_PROTO_CHUNK_BYTES;
-    return room / ((uint64_t)dims * 8);
-}
-
 /* ---- answers --------------------------------------------------------------------------- */
 
 static int send_opened(qmcd_conn *c, qmcd_sess_attach *a)
@@ -119,20 +108,6 @@ static int send_opened(qmcd_conn *c, qmcd_sess_attach *a)
     o->memory_bytes = s->mem_bytes;
     o->park_ms = qmcd_conn_server(c)->cfg.session_idle_timeout_ms;
     return qmcd_conn_send(c, &r);
-}
-
-static void report_of(const qmcd_sess *s, qmc_msg *r, uint64_t request_id)
-{
-    memset(r, 0, sizeof *r);
-    r->type = QMC_MSG_SESSION_REPORT;
-    r->request_id = request_id;
-    r->u.session_report.session_id = s->id;
-    if (s->core) {
-        qmc_session_status(s->core, &r->u.session_report.report);
-    } else {
-        qmc_result_init(&r->u.session_report.report.running);
-        r->u.session_report.report.running.dims = s->spec.dims;
-    }
 }
 
 /* The end: SESSION_RESULT, or ERROR with the integrator's reason. */
@@ -162,122 +137,10 @@ static int send_end(qmcd_conn *c, qmcd_sess_attach *a)
     res->seconds = s->compute_s;
     res->reference_kind = s->spec.has_exact ? 1 : 0;
     res->reference = s->spec.has_exact ? s->spec.exact : 0;
+    /* The caller's f: nothing is known of |f| in closed form. */
+    res->has_known_abs = 0;
+    res->known_abs = 0;
     return qmcd_conn_send(c, &r);
-}
-
-/* How the waiting batch travels, decided at its first piece: the ring
- * when the client asked for it, has one, and the batch's pieces (points
- * and their values) fit in it at once - the client needs every point
- * before it answers, and holds the slots until then. */
-static int uses_ring(const qmcd_conn *c, const qmcd_sess *s)
-{
-    const qmcd_ring *r = qmcd_conn_ring(c);
-    if (s->transport != QMC_TRANSPORT_SHM || !r)
-        return 0;
-    const uint64_t per = r->slot_bytes / (((uint64_t)s->spec.dims + 1) * 8);
-    return per > 0 && (s->batch.count + per - 1) / per <= r->slots;
-}
-
-/* The next piece of the waiting batch: a QMCD_PUMP_* status. */
-static int send_piece(qmcd_conn *c, qmcd_sess_attach *a)
-{
-    qmcd_sess *s = a->s;
-    const uint32_t dims = s->spec.dims;
-    if (s->sent == 0)
-        s->ring = uses_ring(c, s);
-    qmc_msg r = {.type = QMC_MSG_SESSION_BATCH, .request_id = a->p.request_id};
-    qmc_msg_session_batch *b = &r.u.session_batch;
-    b->seq = s->batch.seq;
-    b->count = s->batch.count;
-    b->first = s->sent;
-    b->dims = dims;
-    const double *points = s->batch.points + s->sent * dims;
-    const uint64_t left = s->batch.count - s->sent;
-    if (s->ring) {
-        qmcd_ring *ring = qmcd_conn_ring(c);
-        if (qmcd_ring_full(ring))
-            return QMCD_PUMP_WAIT; /* the client still holds every slot */
-        if (qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
-            return QMCD_PUMP_NO_ROOM;
-        const uint64_t per = ring->slot_bytes / (((uint64_t)dims + 1) * 8);
-        const uint64_t n = left < per ? left : per;
-        uint32_t slot;
-        uint8_t *dst = qmcd_ring_next(ring, &slot);
-        /* Host order is the wire's little-endian order (as POINTS data). */
-        memcpy(dst, points, (size_t)n * dims * 8);
-        b->points = (uint32_t)n;
-        b->transport = QMC_TRANSPORT_SHM;
-        b->slot = slot;
-        b->data_len = (uint32_t)(n * dims * 8);
-        if (qmcd_conn_send(c, &r) != 0)
-            return QMCD_PUMP_FAILED;
-        int flush = qmcd_ring_hand_out(ring);
-        s->pieces[s->n_pieces++] =
-            (qmcd_sess_piece){s->sent, (uint32_t)n, slot, ring->handed_total};
-        s->sent += n;
-        return QMCD_PUMP_SENT | (flush || s->sent == s->batch.count ? QMCD_PUMP_FLUSH : 0);
-    }
-    const uint64_t per = inline_points(c, dims);
-    const uint64_t n = left < per ? left : per;
-    const size_t frame = QMC_PROTO_HEADER_BYTES + 44 + (size_t)n * dims * 8;
-    if (qmcd_conn_out_room(c) < frame + QMCD_OUT_RESERVE)
-        return QMCD_PUMP_NO_ROOM;
-    b->points = (uint32_t)n;
-    b->transport = QMC_TRANSPORT_INLINE;
-    b->data_len = (uint32_t)(n * dims * 8);
-    b->data = (const uint8_t *)(const void *)points;
-    if (qmcd_conn_send(c, &r) != 0)
-        return QMCD_PUMP_FAILED;
-    s->sent += n;
-    return QMCD_PUMP_SENT | (s->sent == s->batch.count ? QMCD_PUMP_FLUSH : 0);
-}
-
-/* The ring's next free slot, as room for a whole batch of the sampling
- * engine's and its values (*slot, *points), when the client takes batches
- * through its ring and the answer to the batch fits the output buffer;
- * else NULL. */
-static double *next_slot(qmcd_conn *c, const qmcd_sess *s, uint32_t *slot, size_t *points)
-{
-    qmcd_ring *r = qmcd_conn_ring(c);
-    const uint64_t row = ((uint64_t)s->spec.dims + 1) * 8;
-    if (s->transport != QMC_TRANSPORT_SHM || !r || qmcd_ring_full(r) ||
-        s->engine_batch > r->slot_bytes / row || qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
-        return NULL;
-    *points = r->slot_bytes / row;
-    return (double *)(void *)qmcd_ring_next(r, slot);
-}
-
-/* The step just assembled the batch in ring slot `slot`: the report, and
- * the batch as one piece naming that slot, now. */
-static void send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot)
-{
-    qmcd_sess *s = a->s;
-    qmcd_ring *r = qmcd_conn_ring(c);
-    qmc_msg m;
-    if (s->owe_report) {
-        s->owe_report = 0;
-        report_of(s, &m, a->p.request_id);
-        if (qmcd_conn_send(c, &m) != 0)
-            return;
-    }
-    memset(&m, 0, sizeof m);
-    m.type = QMC_MSG_SESSION_BATCH;
-    m.request_id = a->p.request_id;
-    qmc_msg_session_batch *b = &m.u.session_batch;
-    b->seq = s->batch.seq;
-    b->count = b->points = (uint32_t)s->batch.count;
-    b->dims = s->spec.dims;
-    b->transport = QMC_TRANSPORT_SHM;
-    b->slot = slot;
-    b->data_len = (uint32_t)(s->batch.count * s->spec.dims * 8);
-    if (qmcd_conn_send(c, &m) != 0)
-        return;
-    (void)qmcd_ring_hand_out(r);
-    s->ring = 1;
-    s->n_pieces = 0;
-    s->pieces[s->n_pieces++] = (qmcd_sess_piece){0, (uint32_t)s->batch.count, slot,
-                                                 r->handed_total};
-    s->sent = s->batch.count;
 }
 
 /* ---- the producer ----------------------------------------------------------------------- */
@@ -309,12 +172,14 @@ static int sess_pump(qmcd_conn *c, qmcd_producer *p)
             err = send_opened(c, a);
         } else {
             s->owe_report = 0;
-            report_of(s, &r, a->p.request_id);
+            qmcd__sess_report_of(s, &r, a->p.request_id);
             err = qmcd_conn_send(c, &r);
         }
         return err ? QMCD_PUMP_FAILED : QMCD_PUMP_SENT;
     }
     if (s->finished) {
+        if (qmcd__sess_part_owed(s))
+            return qmcd__sess_part_pump(c, a); /* session_part.c */
         if (!small_room)
             return QMCD_PUMP_NO_ROOM;
         return send_end(c, a) == 0 ? QMCD_PUMP_DONE : QMCD_PUMP_FAILED;
@@ -328,7 +193,7 @@ static int sess_pump(qmcd_conn *c, qmcd_producer *p)
         return QMCD_PUMP_FAILED;
     }
     if (s->have_batch && s->sent < s->batch.count)
-        return send_piece(c, a);
+        return qmcd__sess_send_piece(c, a);
     return QMCD_PUMP_WAIT; /* for the values: their handler steps and kicks */
 }
 
@@ -344,7 +209,7 @@ static qmcd_wait sess_waiting(const qmcd_conn *c, const qmcd_producer *p)
         return QMCD_WAIT_NONE;
     if (s->have_batch && s->sent < s->batch.count) {
         qmcd_ring *r = qmcd_conn_ring(c);
-        const int ring = s->sent ? s->ring : uses_ring(c, s);
+        const int ring = s->sent ? s->ring : qmcd__sess_uses_ring(c, s);
         return ring && qmcd_ring_full(r) ? QMCD_WAIT_RING : QMCD_WAIT_NONE;
     }
     return QMCD_WAIT_WORK; /* the client's values */
@@ -380,9 +245,11 @@ static void home_batch(qmcd_sess *s)
 }
 
 /* Forgets the batch's pieces and values on the way: the next connection
- * is sent the batch again whole. */
+ * is sent the batch again whole (and a part's sums all again). */
 static void rewind_batch(qmcd_sess *s)
 {
+    s->part_head_sent = 0;
+    s->part_sent = 0;
     s->sent = 0;
     s->got = 0;
     s->n_pieces = 0;
@@ -482,7 +349,7 @@ static int transport_ok(qmcd_conn *c, uint64_t request_id, qmc_points_transport 
 /* A point must fit an inline piece: a batch may always come inline. */
 static int point_fits(qmcd_conn *c, uint64_t request_id, uint32_t dims)
 {
-    if (dims == 0 || inline_points(c, dims) > 0)
+    if (dims == 0 || qmcd__sess_inline_points(c, dims) > 0)
         return 1;
     qmcd_conn_error(c, request_id, QMC_ETOOBIG,
                     "a point of %u dims (%llu bytes) does not fit the client's max_frame of %u",
@@ -532,10 +399,12 @@ static void on_open(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         !point_fits(c, m->request_id, o->spec.dims))
         return;
     qmc_session_spec spec = o->spec;
-    if (spec.part_p || spec.part_k) {
+    if ((spec.part_p || spec.part_k) && qmcd_conn_version(c) < QMC_PROTO_VERSION_PARTS) {
+        /* Its block sums have a message only from version 6 on. */
         qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
-                        "a session of a part (%u/%u): its block sums have no message yet; run "
-                        "parts in-process", spec.part_k, spec.part_p);
+                        "a session of a part (%u/%u) needs protocol version %u; this "
+                        "connection chose %u (offer %u in HELLO)", spec.part_k, spec.part_p,
+                        QMC_PROTO_VERSION_PARTS, qmcd_conn_version(c), QMC_PROTO_VERSION_PARTS);
         return;
     }
     if (spec.dims == 0 || spec.dims > QMC_SESSION_MAX_DIMS) {
@@ -761,12 +630,12 @@ static void on_values(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
      * producer of the connection could take that slot. */
     uint32_t slot = 0;
     size_t next_points = 0;
-    double *next = in_place ? next_slot(c, s, &slot, &next_points) : NULL;
+    double *next = in_place ? qmcd__sess_next_slot(c, s, &slot, &next_points) : NULL;
     if (!qmcd__sess_start_tell(s, tenant, in_place, next, next_points))
         return; /* on the pool: task_done */
     step_done(s, 0); /* the connection pumps after this request */
     if (next && s->a && !s->stepping && s->have_batch && s->batch.points == next)
-        send_in_slot(c, s->a, slot);
+        qmcd__sess_send_in_slot(c, s->a, slot);
 }
 
 static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
@@ -782,6 +651,14 @@ static void on_resume(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
         return;
     if (!point_fits(c, m->request_id, s->spec.dims))
         return;
+    if (s->spec.part_p && qmcd_conn_version(c) < QMC_PROTO_VERSION_PARTS) {
+        /* Its answer, block sums, has no message before version 6. */
+        qmcd_conn_error(c, m->request_id, QMC_ENOTSUP,
+                        "session %llu is a part, whose answer needs protocol version %u; this "
+                        "connection chose %u", (unsigned long long)s->id,
+                        QMC_PROTO_VERSION_PARTS, qmcd_conn_version(c));
+        return;
+    }
     qmcd_sess_attach *old = s->a;
     if (old && old->c == c) {
         qmcd_conn_error(c, m->request_id, QMC_EINVAL,
@@ -828,7 +705,7 @@ static void on_close(qmcd_conn *c, const qmc_msg *m, int fd, int64_t t0_us)
     if (!s)
         return;
     qmc_msg r;
-    report_of(s, &r, m->request_id);
+    qmcd__sess_report_of(s, &r, m->request_id);
     qmcd_sess_attach *a = s->a;
     if (a) {
         /* Its own request ends first, so that a client reads it before the

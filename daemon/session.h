@@ -1,13 +1,16 @@
 /*
  * session.h - integration sessions in the daemon (PROTOCOL.md section
- * 6.21, docs/SESSIONS.md), shared by their three files:
+ * 6.21, docs/SESSIONS.md), shared by their four files:
  *
  *   session.c        the requests (SESSION_OPEN, _VALUES, _RESUME, _CLOSE)
  *                    and the producer kind that answers on a connection;
  *   session_store.c  the server-wide registry: ids, tokens, identities,
  *                    the caps, parking and expiry, the STATS gauges;
  *   session_step.c   moving the integrator on (qmc_session_new, _tell) on
- *                    the worker pool or, when cheap, on the loop thread.
+ *                    the worker pool or, when cheap, on the loop thread;
+ *   session_part.c   a part session's answer: its block sums (version 6).
+ *   session_send.c   the batches and reports on the way out (inline, ring
+ *                    slots).
  *
  * A session (sess) lives in the registry from SESSION_OPEN until it ends,
  * is closed or expires.  While a connection serves it, an attachment - a
@@ -99,6 +102,8 @@ struct qmcd_sess {
     /* What the attachment still owes its client, in this order. */
     int owe_opened, owe_report;
     int finished;                 /* the integrator ended: the result is owed */
+    int part_head_sent;           /* a part's SESSION_PART went out, and */
+    uint64_t part_sent;           /* this many of its block sums */
     int announced;                /* SESSION_OPENED went out: its client holds
                                      the token, so it is kept when parked */
     int64_t parked_ms;            /* when it was parked, 0 while attached */
@@ -156,6 +161,34 @@ int qmcd__sess_start_tell(qmcd_sess *s, qmcd_pool_tenant *tenant, const double *
 /* After a step (or the opening): takes the next batch (ask) and whether
  * the session finished. */
 void qmcd__sess_settle(qmcd_sess *s);
+
+/* ---- session_part.c ---------------------------------------------------------------- */
+
+/* 1 while a finished part session (no error) still owes its SESSION_PART
+ * or block sums. */
+int qmcd__sess_part_owed(const qmcd_sess *s);
+/* Queues the next of them on a's connection: a QMCD_PUMP_* status. */
+int qmcd__sess_part_pump(qmcd_conn *c, qmcd_sess_attach *a);
+
+/* ---- session_send.c ----------------------------------------------------------------- */
+
+/* Whole points of dims in one inline piece: a chunk's bytes and the
+ * client's max_frame bound it (0: not even one point fits). */
+uint64_t qmcd__sess_inline_points(const qmcd_conn *c, uint32_t dims);
+/* The SESSION_REPORT of s's state, under request_id, into *r. */
+void qmcd__sess_report_of(const qmcd_sess *s, qmc_msg *r, uint64_t request_id);
+/* 1 when the waiting batch goes through the client's ring: it asked, has
+ * one, and the batch's pieces (points and values) fit in it at once. */
+int qmcd__sess_uses_ring(const qmcd_conn *c, const qmcd_sess *s);
+/* The next piece of the waiting batch: a QMCD_PUMP_* status. */
+int qmcd__sess_send_piece(qmcd_conn *c, qmcd_sess_attach *a);
+/* The ring's next free slot as room for a whole batch of the engine's and
+ * its values (*slot, *points), or NULL (no ring, full, too small, or no
+ * room for the answer). */
+double *qmcd__sess_next_slot(qmcd_conn *c, const qmcd_sess *s, uint32_t *slot, size_t *points);
+/* The step assembled the batch in ring slot `slot`: the report, and the
+ * batch as one piece naming that slot, now. */
+void qmcd__sess_send_in_slot(qmcd_conn *c, qmcd_sess_attach *a, uint32_t slot);
 
 /* ---- session.c ---------------------------------------------------------------------- */
 

@@ -78,7 +78,10 @@ static int sess_interrupt(void *ctx)
 /* One step, on whichever thread runs it; values: the batch's values
  * (s->vals, or where they arrived for a step run at once); next, when not
  * NULL, where the next batch of whole blocks is to be assembled (a ring
- * slot: qmc_session_tell_to), room for next_points points. */
+ * slot: qmc_session_tell_to), room for next_points points.  Told whole,
+ * not ahead (qmc_session_tell_ahead): the report that follows must take
+ * this batch in (PROTOCOL.md 6.21; docs/SESSIONS.md says what telling
+ * ahead would need). */
 static void step(qmcd_sess *s, const double *values, double *next, size_t next_points)
 {
     const int64_t t0 = qmcd_now_us(), c0 = cpu_us();

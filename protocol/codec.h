@@ -161,8 +161,24 @@ void qmc__io_f64s(qmc__io *io, qmc_f64s *list, uint32_t max, int finite);
 /* len bytes whose length was sent earlier: a view when decoding. */
 void qmc__io_blob(qmc__io *io, const uint8_t **data, uint32_t len);
 
+/* known_abs.c: JOB_RESULT's version-6 tail, the integral of |f| known in
+ * closed form (QMC__KNOWN_ABS_BYTES on the wire from version 6 on; none
+ * before, and a decoded message's has_known_abs is then -1). */
+enum { QMC__KNOWN_ABS_BYTES = 16 };
+void qmc__io_known_abs(qmc__io *io, qmc_msg_job_result *r);
+
 /* 1 when p[0 .. n) is well-formed UTF-8 (RFC 3629) with no NUL byte. */
 int qmc__utf8_ok(const uint8_t *p, size_t n);
+
+/* qmc_sampling_spec, shared by INTEGRATE, JOB_RESULT and SESSION_PART
+ * (40 bytes); finite: confidence must be (a request's). */
+void qmc__io_sampling(qmc__io *io, qmc_sampling_spec *s, int finite);
+
+/* The part-session messages of version 6 (messages_part.c) and the bytes
+ * before their variable fields. */
+enum { QMC__FIXED_SESSION_PART = 88, QMC__FIXED_PART_SUMS = 24 };
+void qmc__io_session_part(qmc__io *io, qmc_msg *m);
+void qmc__io_session_part_sums(qmc__io *io, qmc_msg *m);
 
 /* One entry per QMC_MSG_MAP message. */
 typedef struct qmc__layout {

@@ -307,7 +307,7 @@ static void io_end(qmc__io *io, qmc_msg *m)
 /* qmc_sampling_spec, shared by INTEGRATE and JOB_RESULT: 4 code bytes,
  * seq_flags, seed, n, confidence, reps, split_net, 3 reserved (40 bytes in
  * all; split_net was a reserved zero before it existed). */
-static void io_sampling(qmc__io *io, qmc_sampling_spec *s, int finite)
+void qmc__io_sampling(qmc__io *io, qmc_sampling_spec *s, int finite)
 {
     IO_ENUM(io, s->sampler, sampler_ok);
     IO_ENUM(io, s->seq, seq_kind_or_none_ok);
@@ -348,7 +348,7 @@ static void io_integrate(qmc__io *io, qmc_msg *m)
     qmc__io_f64_finite(io, &s->beta);
     qmc__io_f64_finite(io, &in->tol_abs);
     qmc__io_f64_finite(io, &in->tol_rel);
-    io_sampling(io, &in->sampling, 1);
+    qmc__io_sampling(io, &in->sampling, 1);
     qmc__io_name(io, s->integrand);
     qmc__io_name(io, s->control);
     qmc__io_f64s(io, &g->a, QMC_PROTO_MAX_LIST, 1);
@@ -411,9 +411,10 @@ static void io_result(qmc__io *io, qmc_msg *m)
     qmc__io_f64(io, &r->cv.variance_ratio);
     qmc__io_f64(io, &r->seconds);
     qmc__io_f64(io, &r->reference);
-    io_sampling(io, &r->sampling, 0);
+    qmc__io_sampling(io, &r->sampling, 0);
     qmc__io_str(io, &r->detail, QMC_PROTO_MAX_MESSAGE, QMC__STR_TEXT);
     qmc__io_str(io, &r->auto_reason, QMC_PROTO_MAX_MESSAGE, QMC__STR_TEXT);
+    qmc__io_known_abs(io, r); /* version 6 on */
 }
 
 static void io_empty(qmc__io *io, qmc_msg *m)
@@ -594,7 +595,7 @@ static void io_session_open(qmc__io *io, qmc_msg *m)
     qmc__io_f64_finite(io, &in->tol_abs);
     qmc__io_f64_finite(io, &in->tol_rel);
     qmc__io_f64_finite(io, &s->exact);
-    io_sampling(io, &in->sampling, 1);
+    qmc__io_sampling(io, &in->sampling, 1);
     io_session_name(io, s->name);
     if (io->decode)
         memset(&in->interrupt, 0, sizeof in->interrupt); /* in-process only */
@@ -610,6 +611,16 @@ static void io_session_opened(qmc__io *io, qmc_msg *m)
     qmc__io_u64(io, &o->max_batch);
     qmc__io_u64(io, &o->memory_bytes);
     qmc__io_u64(io, &o->park_ms);
+}
+
+/* SESSION_BATCH's or SESSION_VALUES' data: inline, len bytes follow;
+ * through the ring it is in a slot (a decoded message has no pointer). */
+static void io_ring_or_inline(qmc__io *io, int ring, const uint8_t **data, uint32_t len)
+{
+    if (!ring)
+        qmc__io_blob(io, data, len);
+    else if (io->decode)
+        *data = NULL;
 }
 
 /* SESSION_BATCH: a piece of whole points inside its batch; inline the
@@ -640,12 +651,7 @@ static void io_session_batch(qmc__io *io, qmc_msg *m)
         qmc__io_invalid(io);
         return;
     }
-    if (ring) {
-        if (io->decode)
-            b->data = NULL;
-        return;
-    }
-    qmc__io_blob(io, &b->data, b->data_len);
+    io_ring_or_inline(io, ring, &b->data, b->data_len);
 }
 
 /* SESSION_VALUES: values of whole points; inline they follow, through the
@@ -672,12 +678,7 @@ static void io_session_values(qmc__io *io, qmc_msg *m)
         qmc__io_invalid(io);
         return;
     }
-    if (ring) {
-        if (io->decode)
-            v->data = NULL;
-        return;
-    }
-    qmc__io_blob(io, &v->data, v->data_len);
+    io_ring_or_inline(io, ring, &v->data, v->data_len);
 }
 
 /* SESSION_REPORT: qmc_session_status's report.  The flags are the running
@@ -750,8 +751,9 @@ static void io_session_close(qmc__io *io, qmc_msg *m)
             2 * (LEN32 + 8 * QMC_PROTO_MAX_LIST) + LEN32 + QMC_SCENE_MAX_BYTES
 #define LAYOUT_JOB_ACCEPTED io_job_id, FIXED_JOB_ID, FIXED_JOB_ID
 #define LAYOUT_JOB_PROGRESS io_progress, FIXED_PROGRESS, FIXED_PROGRESS
-#define LAYOUT_JOB_RESULT \
-    io_result, FIXED_RESULT + 2 * STR16, FIXED_RESULT + 2 * (STR16 + QMC_PROTO_MAX_MESSAGE)
+#define LAYOUT_JOB_RESULT                            \
+    io_result, FIXED_RESULT + 2 * STR16,             \
+        FIXED_RESULT + 2 * (STR16 + QMC_PROTO_MAX_MESSAGE) + QMC__KNOWN_ABS_BYTES
 #define LAYOUT_JOB_STATUS LAYOUT_JOB_ACCEPTED
 #define LAYOUT_JOB_STATE io_state, FIXED_STATE, FIXED_STATE
 #define LAYOUT_JOB_CANCEL LAYOUT_JOB_ACCEPTED
@@ -779,6 +781,12 @@ static void io_session_close(qmc__io *io, qmc_msg *m)
 #define LAYOUT_SESSION_RESULT LAYOUT_JOB_RESULT
 #define LAYOUT_SESSION_RESUME io_session_resume, FIXED_SESSION_RESUME, FIXED_SESSION_RESUME
 #define LAYOUT_SESSION_CLOSE io_session_close, FIXED_SESSION_CLOSE, FIXED_SESSION_CLOSE
+/* Version 6: messages_part.c. */
+#define LAYOUT_SESSION_PART \
+    qmc__io_session_part, QMC__FIXED_SESSION_PART, QMC__FIXED_SESSION_PART
+#define LAYOUT_SESSION_PART_SUMS                                                \
+    qmc__io_session_part_sums, QMC__FIXED_PART_SUMS + QMC_PROTO_PART_SUMS_BYTES, \
+        QMC__FIXED_PART_SUMS + QMC_PROTO_PART_MAX_SUMS * QMC_PROTO_PART_SUMS_BYTES
 
 #define ROW_FIELDS(fn, lo, hi) (lo), (hi), fn
 #define ROW_EXPAND(...) ROW_FIELDS(__VA_ARGS__)

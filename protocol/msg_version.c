@@ -20,6 +20,11 @@ unsigned qmc_proto_msg_min_version(const qmc_msg *msg)
     case QMC_MSG_PIXELS:
         return QMC_PROTO_VERSION_PIXELS;
     case QMC_MSG_SESSION_OPEN:
+        return msg->u.session_open.spec.part_p || msg->u.session_open.spec.part_k
+                   ? QMC_PROTO_VERSION_PARTS : QMC_PROTO_VERSION_SESSIONS;
+    case QMC_MSG_SESSION_PART:
+    case QMC_MSG_SESSION_PART_SUMS:
+        return QMC_PROTO_VERSION_PARTS;
     case QMC_MSG_SESSION_VALUES:
     case QMC_MSG_SESSION_RESUME:
     case QMC_MSG_SESSION_CLOSE:

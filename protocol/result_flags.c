@@ -5,7 +5,7 @@
  *
  * Versions 1 and 2 define bits 0-11; version 3 adds bits 12-16
  * (few_nonzero, zero_spread, tail_untested, unresolved, mis_undersampled);
- * versions 4 and 5 define the same bits as version 3.
+ * versions 4, 5 and 6 define the same bits as version 3.
  * A peer rejects a frame with a flag bit its version does not define, so
  * a daemon that sent bits 12-16 to a client built before them would break
  * it.  Instead the bits are dropped for such a peer and error_unreliable,
@@ -29,9 +29,11 @@
 #define RESULT_FLAGS_ALL (0u QMC_FLAG_MAP(FLAG_BIT))
 _Static_assert(RESULT_FLAGS_ALL == QMC_PROTO_RESULT_FLAGS_V3,
                "a result flag without a protocol version (PROTOCOL.md section 5)");
-/* Versions 4 (PIXELS) and 5 (sessions) added no flag bits: they define
- * version 3's.  A new version must say here which bits it defines. */
-_Static_assert(QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_SESSIONS,
+/* Versions 4 (PIXELS), 5 (sessions) and 6 (the known integral of |f|,
+ * part sessions) added no flag bits: they define version 3's.  A new
+ * version must say here which bits it defines. */
+_Static_assert(QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_KNOWN_ABS &&
+               QMC_PROTO_VERSION_MAX == QMC_PROTO_VERSION_PARTS,
                "a protocol version without its result flag bits");
 _Static_assert((QMC_PROTO_RESULT_FLAGS_V1 & QMC_FLAG_ERROR_UNRELIABLE) != 0,
                "the oldest version must carry error_unreliable");

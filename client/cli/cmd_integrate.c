@@ -91,7 +91,8 @@ static const char integrate_help[] =
     "  --json            one JSON object instead of text\n"
     "\n"
     "  --threads and --part are in-process options: with --connect the daemon's\n"
-    "  worker pool runs the whole job, and giving either is an error.\n";
+    "  worker pool runs the whole job, and giving either is an error; but a\n"
+    "  --command's --part runs on the daemon too (the same part file).\n";
 
 static int is_sampler(const char *m)
 {

@@ -25,8 +25,6 @@ int cli_cmd_session_open(cli_cmd_session *cs, const qmc_session_spec *spec,
     if (rc)
         return rc;
     int err = qmc_client_session_open(cs->client, spec, &cs->remote);
-    if (err == QMC_ENOTSUP && spec->part_p)
-        return cli_remote_in_process_only("--part", "a --command's whole job");
     if (err)
         return cli_remote_fail(cs->client, err, "");
     return 0;
@@ -112,6 +110,17 @@ int cli_cmd_session_result(const cli_cmd_session *cs, qmc_integrate_report *ir)
     }
     free(r);
     return rc;
+}
+
+int cli_cmd_session_part(const cli_cmd_session *cs, qmc_session_part_sums *out)
+{
+    int err = cs->local ? qmc_session_part(cs->local, out)
+                        : qmc_client_session_part(cs->remote, out);
+    if (err == 0)
+        return 0;
+    if (cs->local)
+        return cli_error("--part: %s", qmc_strerror(err));
+    return cli_remote_fail(cs->client, err, "--part: the daemon: ");
 }
 
 void cli_cmd_session_close(cli_cmd_session *cs)

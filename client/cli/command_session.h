@@ -1,9 +1,10 @@
 /*
  * command_session.h - the session behind `qmc integrate --command`
  * (private to the CLI): libqmc's in-process qmc_session, or one on a qmcd
- * daemon through libqmcclient's qmc_client_session, behind the same five
+ * daemon through libqmcclient's qmc_client_session, behind the same six
  * calls, so that the loop that feeds PROGRAM (integrate_command.c) does
- * not know where the integrator runs.  Both give the same bytes.
+ * not know where the integrator runs.  Both give the same bytes, a
+ * part's block sums included.
  */
 #ifndef QMC_CLI_COMMAND_SESSION_H
 #define QMC_CLI_COMMAND_SESSION_H
@@ -38,6 +39,10 @@ void cli_cmd_session_status(const cli_cmd_session *cs, qmc_session_report *out);
 /* The final answer: *ir as qmc_session_result fills it.  0, or
  * CLI_EXIT_FAIL after one error line. */
 int cli_cmd_session_result(const cli_cmd_session *cs, qmc_integrate_report *ir);
+/* A part session's answer once done (its block sums: here, or as the
+ * daemon sent them, the same bytes); valid until close.  0, or
+ * CLI_EXIT_FAIL after one error line. */
+int cli_cmd_session_part(const cli_cmd_session *cs, qmc_session_part_sums *out);
 /* Closes and frees it (on the daemon too), and the connection. */
 void cli_cmd_session_close(cli_cmd_session *cs);
 

@@ -85,6 +85,11 @@ typedef struct cli_report {
     double seconds;
     double confidence;            /* the interval's level */
     const cli_problem *problem;
+    /* The integral of |f| known in closed form as the daemon told it
+     * (protocol version 6; known_abs_told 1).  Untold (0: in-process, a
+     * --command, merge, an older daemon), the problem's integrand says. */
+    int known_abs_told, has_known_abs;
+    double known_abs;
 } cli_report;
 
 /* Parses `qmc integrate` options (argv[0] is the subcommand name). */

@@ -245,11 +245,10 @@ static int run_batches(cmd_run *r)
 static int print_answer(cmd_run *r, const cli_problem *p, double seconds)
 {
     const cli_integrate *o = r->o;
-    if (o->part_p) { /* in-process only: refused with --connect */
+    if (o->part_p) { /* here or on the daemon: the same sums */
         qmc_session_part_sums ps;
-        int err = qmc_session_part(r->cs.local, &ps);
-        if (err)
-            return cli_error("%s", qmc_strerror(err));
+        if (cli_cmd_session_part(&r->cs, &ps))
+            return CLI_EXIT_FAIL;
         if (cli_partial_write_sums(stdout, o, ps.fingerprint, ps.blocks, ps.sums, ps.first,
                                    ps.count, seconds))
             return CLI_EXIT_FAIL;
@@ -278,8 +277,6 @@ int cli_integrate_command(const cli_integrate *o, const cli_problem *p, const ch
     if (o->threads > 1)
         return cli_error("--threads runs built-in integrands on several threads; a "
                          "--command's program is one process (drop --threads)");
-    if (endpoint && o->part_p)
-        return cli_remote_in_process_only("--part", "a --command's whole job");
     cmd_run r;
     memset(&r, 0, sizeof r);
     r.o = o;

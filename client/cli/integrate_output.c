@@ -12,12 +12,13 @@
 #include "integrate.h"
 #include "json.h"
 
-/* The integral of |f| to judge errors against: known, else estimated. */
+/* The integral of |f| to judge errors against: known (as the daemon said,
+ * else as the integrand built here says), else estimated. */
 static double abs_integral(const cli_report *rep)
 {
     const qmc_integrand *f = rep->problem->f;
-    if (f->has_abs_integral)
-        return f->abs_integral;
+    if (rep->known_abs_told ? rep->has_known_abs : f->has_abs_integral)
+        return rep->known_abs_told ? rep->known_abs : f->abs_integral;
     return rep->res.abs_integral > 0 ? rep->res.abs_integral : NAN;
 }
 

@@ -86,6 +86,11 @@ int cli_integrate_remote(const cli_integrate *o, const cli_problem *p, const cha
             rep->cv = r->cv;
             rep->method = qmc_method_name(r->method_used);
             rep->seconds = r->seconds;
+            /* The daemon's word on the integral of |f| (version 6); an
+             * older daemon's answer leaves it to the problem built here. */
+            rep->known_abs_told = r->has_known_abs >= 0;
+            rep->has_known_abs = r->has_known_abs > 0;
+            rep->known_abs = r->known_abs;
             cli_copy_text(rep->detail, sizeof rep->detail, r->detail);
             cli_copy_text(rep->auto_reason, sizeof rep->auto_reason, r->auto_reason);
         }

@@ -257,6 +257,30 @@ int qmc__client_file_session(qmc_client *c, const qmc_msg *msg);
  * the caller stay freed). */
 void qmc__client_sessions_detach(qmc_client *c);
 
+/* ---- session_part.c ------------------------------------------------------------- */
+
+/* A part session's answer as it arrives (protocol version 6): SESSION_PART,
+ * then its block sums, gathered in a buffer grown as they come (never
+ * larger than what the server sent, at most QMC_SAMPLING_MAX_BLOCKS). */
+typedef struct qmc__client_part {
+    uint32_t part_k, part_p;       /* as opened (0 0: a whole job, or a resume) */
+    int have_head;
+    qmc_msg_session_part head;
+    qmc_sampling_sums *sums;
+    uint64_t got, cap;
+} qmc__client_part;
+
+/* Files a SESSION_PART or SESSION_PART_SUMS of session session_id: 0, or
+ * a reason in why (a frame out of turn, or past its part; QMC_ENOMEM: no
+ * room for the sums) with the error to break the connection with. */
+int qmc__client_part_file(qmc__client_part *p, uint64_t session_id, const qmc_msg *m,
+                          char *why, size_t why_bytes);
+/* SESSION_RESULT came: 0 when the part (if any) is whole, else why. */
+int qmc__client_part_end(const qmc__client_part *p, char *why, size_t why_bytes);
+/* As qmc_client_session_part. */
+int qmc__client_part_get(const qmc__client_part *p, qmc_session_part_sums *out);
+void qmc__client_part_free(qmc__client_part *p);
+
 /* ---- jobs.c --------------------------------------------------------------------- */
 
 /* A JOB_RESULT's (or SESSION_RESULT's) fields into a result. */

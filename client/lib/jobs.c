@@ -42,6 +42,8 @@ void qmc__client_copy_result(qmc_client_result *r, const qmc_msg_job_result *m)
     r->seconds = m->seconds;
     r->reference_kind = m->reference_kind;
     r->reference = m->reference;
+    r->has_known_abs = m->has_known_abs;
+    r->known_abs = m->known_abs;
     qmc__client_copy_str(r->detail, sizeof r->detail, m->detail);
     qmc__client_copy_str(r->auto_reason, sizeof r->auto_reason, m->auto_reason);
 }

@@ -2,8 +2,9 @@
  * session.c - integration sessions over a connection (PROTOCOL.md section
  * 6.21): open and resume, the batches as they arrive (inline pieces, or
  * ring slots), the values sent back (from the caller's buffer, or written
- * into the batch's slot), the reports, the result, close; and the
- * callback convenience built from them.
+ * into the batch's slot), the reports, a part's sums (session_part.c
+ * gathers them), the result, close; and the callback convenience built
+ * from them.
  *
  * Frames for a session may arrive while the client waits for something
  * else (a PONG, a job's result): every frame goes through
@@ -62,6 +63,7 @@ struct qmc_client_session {
     char refusal_msg[QMC_PROTO_MAX_MESSAGE + 1];
     uint64_t reports;              /* SESSION_REPORTs received */
     qmc_session_report report;
+    qmc__client_part part;         /* a part's block sums (session_part.c) */
     /* The end. */
     int err;
     char message[QMC_PROTO_MAX_MESSAGE + 1];
@@ -132,6 +134,7 @@ static void destroy(qmc_client_session *s)
 {
     unpin(s);
     unlink_session(s);
+    qmc__client_part_free(&s->part);
     free(s->points);
     free(s->values);
     free(s);
@@ -285,14 +288,44 @@ static int file_own(qmc_client *c, qmc_client_session *s, const qmc_msg *m)
             unpin(s);
             s->got = 0;
             s->state = ST_WAITING;
+            /* And go back now, once they are half the ring: a server that
+             * tells ahead sends the next batch right behind this report,
+             * so the buffer is never found empty with nothing pinned (when
+             * conn.c releases), and without this the ring would fill and
+             * every few batches wait for a release, and a copy, in turn.
+             * Every slot held is handled: this batch's and older ones (the
+             * next batch's frames come after this report). */
+            if (c->ring.held > c->ring.slots / 2 && !c->ring.pinned) {
+                int err = qmc__client_shm_release(c);
+                if (err)
+                    return err;
+            }
         }
         return 1;
-    case QMC_MSG_SESSION_RESULT:
+    case QMC_MSG_SESSION_PART:
+    case QMC_MSG_SESSION_PART_SUMS: {
+        /* After the last report, with no batch on its way. */
+        char why[128];
+        int err = s->state == ST_WAITING && s->got == 0
+                      ? qmc__client_part_file(&s->part, s->session_id, m, why, sizeof why)
+                      : (snprintf(why, sizeof why, "a part's sums while the session runs"),
+                         QMC_EPROTO);
+        if (err)
+            return qmc__client_break(c, err, "%ssession %llu: %s",
+                                     err == QMC_EPROTO ? "protocol error: " : "",
+                                     (unsigned long long)s->session_id, why);
+        return 1;
+    }
+    case QMC_MSG_SESSION_RESULT: {
+        char why[128];
         if (s->state == ST_OPENING || m->u.result.job_id != s->session_id)
             return bad(c, s, "a result out of turn");
+        if (qmc__client_part_end(&s->part, why, sizeof why) != 0)
+            return bad(c, s, why);
         qmc__client_copy_result(&s->result, &m->u.result);
         end_with(s, 0, (qmc_str){NULL, 0});
         return 1;
+    }
     case QMC_MSG_ERROR:
         end_with(s, m->u.error.code < 0 ? m->u.error.code : QMC_EPROTO, m->u.error.message);
         return 1;
@@ -422,9 +455,6 @@ int qmc_client_session_open(qmc_client *c, const qmc_session_spec *spec,
         return err;
     if (!spec)
         return qmc__client_fail(c, QMC_EINVAL, "sessions: no spec");
-    if (spec->part_p)
-        return qmc__client_fail(c, QMC_ENOTSUP, "sessions: a part session's block sums have "
-                                "no message yet: run parts in-process (qmc/session.h)");
     /* Sampling batches are large: through a ring sized for them, on a
      * Unix socket, if the client has none yet and the server takes it. */
     if (is_sampling_or_auto(spec->integrate.method) && spec->dims) {
@@ -440,7 +470,13 @@ int qmc_client_session_open(qmc_client *c, const qmc_session_spec *spec,
     memset(&m.u.session_open.spec.integrate.interrupt, 0,
            sizeof m.u.session_open.spec.integrate.interrupt);
     m.u.session_open.transport = c->ring.base ? QMC_TRANSPORT_SHM : QMC_TRANSPORT_INLINE;
-    return start(c, &m, spec->dims, out);
+    err = start(c, &m, spec->dims, out);
+    if (err == 0) {
+        /* Its sums come after its last report, long after OPENED. */
+        (*out)->part.part_k = spec->part_k;
+        (*out)->part.part_p = spec->part_p;
+    }
+    return err;
 }
 
 int qmc_client_session_resume(qmc_client *c, const qmc_client_session_ticket *t,
@@ -653,6 +689,18 @@ int qmc_client_session_result(const qmc_client_session *s, qmc_client_result *ou
     }
     *out = s->result;
     return 0;
+}
+
+int qmc_client_session_part(const qmc_client_session *s, qmc_session_part_sums *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!s)
+        return QMC_EINVAL;
+    if (s->state != ST_DONE)
+        return QMC_EAGAIN;
+    if (s->err)
+        return s->err;
+    return qmc__client_part_get(&s->part, out);
 }
 
 /* ---- the end ------------------------------------------------------------------------- */

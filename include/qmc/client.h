@@ -92,7 +92,10 @@ extern "C" {
 
 typedef struct qmc_client qmc_client;
 
-/* An integration result, copied out of the server's JOB_RESULT frame. */
+/* An integration result, copied out of the server's JOB_RESULT frame.
+ * The caller allocates it, so its size is part of the ABI: while the
+ * library is 0.x (soname libqmcclient.so.0) it may grow between releases
+ * (version 6 added has_known_abs), and clients are rebuilt with it. */
 typedef struct qmc_client_result {
     uint64_t job_id;
     qmc_result res;
@@ -104,6 +107,13 @@ typedef struct qmc_client_result {
     double reference;
     char detail[QMC_PROTO_MAX_MESSAGE + 1];      /* NUL-terminated */
     char auto_reason[QMC_PROTO_MAX_MESSAGE + 1]; /* "" unless auto chose */
+    /* The integral of |f| the integrand knows in closed form, which a
+     * report judges errors against (res.abs_integral is the integrator's
+     * estimate of it): has_known_abs 1 with known_abs, 0 when nothing is
+     * known (a session's f), -1 when the server did not say (protocol
+     * version 5 or older). */
+    int has_known_abs;
+    double known_abs;
 } qmc_client_result;
 
 /*
@@ -361,9 +371,10 @@ typedef struct qmc_client_session_ticket {
 /*
  * Opens a session on the server: spec as qmc_session_new takes it
  * (spec->integrate.interrupt is not sent).  On success *out is the
- * session, whose first batch is on its way.  Errors: QMC_ENOTSUP (a
- * server older than protocol version 5; a part session, whose sums have
- * no message yet), QMC_EINVAL (no spec), the server's refusal with its
+ * session, whose first batch is on its way.  A part session (part_p != 0)
+ * needs protocol version 6: its answer is its block sums
+ * (qmc_client_session_part).  Errors: QMC_ENOTSUP (a server older than
+ * protocol version 5, or 6 for a part), QMC_EINVAL (no spec), the server's refusal with its
  * reason (QMC_EINVAL, QMC_EDIMS, QMC_EBUDGET, ... as qmc_session_new;
  * QMC_ETOOBIG for its session and memory limits), QMC_ENOMEM, or a
  * connection error.  *out is NULL on error.
@@ -423,6 +434,15 @@ void qmc_client_session_report(const qmc_client_session *s, qmc_session_report *
  */
 QMC_MUST_CHECK int qmc_client_session_result(const qmc_client_session *s,
                                              qmc_client_result *out);
+
+/*
+ * A part session's answer once next said done, as qmc_session_part gives
+ * it in-process (the same bytes; out->sums is the handle's, valid until
+ * close or free): 0, QMC_EAGAIN while it runs, QMC_EINVAL for a session
+ * that is not a part, or the session's error.
+ */
+QMC_MUST_CHECK int qmc_client_session_part(const qmc_client_session *s,
+                                           qmc_session_part_sums *out);
 
 /*
  * Ends the session on the server (SESSION_CLOSE, when it still runs there

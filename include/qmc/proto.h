@@ -53,7 +53,7 @@ extern "C" {
 /* Protocol versions negotiated by HELLO / HELLO_OK (the message set, not
  * the frame format): 1 is the base set; 2 adds the shared-memory transport
  * for POINTS.  This codec speaks 1 .. QMC_PROTO_VERSION_MAX. */
-#define QMC_PROTO_VERSION_MAX 5u
+#define QMC_PROTO_VERSION_MAX 6u
 #define QMC_PROTO_VERSION_SHM 2u
 /* Version 3 adds the key-based authentication of the handshake
  * (AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK; qmc/auth.h). */
@@ -64,7 +64,7 @@ extern "C" {
  * version the connection negotiated (qmc_proto_result_flags_for). */
 #define QMC_PROTO_VERSION_FLAGS3 3u
 #define QMC_PROTO_RESULT_FLAGS_V1 0x00000fffu   /* versions 1 and 2 */
-#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3, 4 and 5 */
+#define QMC_PROTO_RESULT_FLAGS_V3 0x0001ffffu   /* versions 3 to 6 */
 /* Version 4 adds PIXELS (a tile of a pixel sampler, qmc/pixel.h),
  * answered by the chunk and END frames POINTS uses. */
 #define QMC_PROTO_VERSION_PIXELS 4u
@@ -74,6 +74,20 @@ extern "C" {
  * qmc/session.h): the client evaluates f at the points the server hands
  * out, the server keeps the estimate and the stopping rule. */
 #define QMC_PROTO_VERSION_SESSIONS 5u
+/* Version 6 adds to JOB_RESULT (and SESSION_RESULT, its layout) the
+ * integral of |f| the integrand knows in closed form (has_known_abs,
+ * known_abs), so a client judges errors against the daemon's knowledge
+ * instead of a copy of libqmc's rules; and the answer of a part session
+ * (part_p != 0): its block sums, SESSION_PART and SESSION_PART_SUMS,
+ * before SESSION_RESULT. */
+#define QMC_PROTO_VERSION_KNOWN_ABS 6u
+#define QMC_PROTO_VERSION_PARTS 6u
+/* Bytes of one block's sums in SESSION_PART_SUMS (PROTOCOL.md 6.22):
+ * count and nonfinite (u32 each), 11 sums and moments, the
+ * QMC_SAMPLING_TOP largest |f| (f64 each). */
+#define QMC_PROTO_PART_SUMS_BYTES (8u + 8u * (11u + QMC_SAMPLING_TOP))
+/* Blocks in one SESSION_PART_SUMS: its data stays within a chunk's bytes. */
+#define QMC_PROTO_PART_MAX_SUMS (QMC_PROTO_CHUNK_BYTES / QMC_PROTO_PART_SUMS_BYTES)
 /* Bytes of a session's token (SESSION_OPENED): from the server's
  * cryptographic random number generator, 256 bits. */
 #define QMC_PROTO_SESSION_TOKEN_BYTES 32u
@@ -136,7 +150,9 @@ extern "C" {
     X(SESSION_REPORT, 30, 'S')     \
     X(SESSION_RESULT, 31, 'S')     \
     X(SESSION_RESUME, 32, 'C')     \
-    X(SESSION_CLOSE, 33, 'C')
+    X(SESSION_CLOSE, 33, 'C')      \
+    X(SESSION_PART, 34, 'S')       \
+    X(SESSION_PART_SUMS, 35, 'S')
 
 typedef enum qmc_msg_type {
 #define QMC__MSG_ENUM(name, code, dir) QMC_MSG_##name = (code),
@@ -309,6 +325,13 @@ typedef struct qmc_msg_job_result {
     double reference;
     qmc_str detail;               /* <= QMC_PROTO_MAX_MESSAGE */
     qmc_str auto_reason;          /* <= QMC_PROTO_MAX_MESSAGE */
+    /* Version 6: the integral of |f| known in closed form (the
+     * integrand's has_abs_integral and abs_integral, qmc/integrand.h; not
+     * res.abs_integral, the integrator's estimate of it).  has_known_abs
+     * is 1 (known_abs: finite, >= 0) or 0 (unknown, known_abs 0); decoded
+     * at version 5 or older, where the wire has no such field, it is -1. */
+    int has_known_abs;
+    double known_abs;
 } qmc_msg_job_result;
 
 /* Integration sessions (protocol version 5, PROTOCOL.md section 6.21):
@@ -376,6 +399,31 @@ typedef struct qmc_msg_session_ref {
     qmc_points_transport transport;
 } qmc_msg_session_ref;
 
+/* Part sessions (protocol version 6, PROTOCOL.md section 6.22): after
+ * the last SESSION_REPORT, one SESSION_PART and then the part's block
+ * sums in SESSION_PART_SUMS frames, in block order, before SESSION_RESULT
+ * - what qmc_session_part gives in-process. */
+typedef struct qmc_msg_session_part {
+    uint64_t session_id;
+    uint64_t fingerprint;         /* qmc_sampling_fingerprint of the whole job */
+    uint64_t blocks;              /* the whole job's: 1 .. QMC_SAMPLING_MAX_BLOCKS */
+    uint64_t first, count;        /* this part's blocks; first + count <= blocks */
+    uint32_t part_k, part_p;      /* 1 <= part_k <= part_p */
+    qmc_sampling_spec sampling;   /* the job as run (n, reps) */
+} qmc_msg_session_part;
+
+/* SESSION_PART_SUMS: blocks [first, first + n) of the part.  Encoders
+ * read sums (n of them, sums[i].block == first + i); decoders set raw
+ * (n records of QMC_PROTO_PART_SUMS_BYTES) - read it with
+ * qmc_proto_part_sums_at. */
+typedef struct qmc_msg_session_part_sums {
+    uint64_t session_id;
+    uint64_t first;               /* the first record's block number */
+    uint32_t n;                   /* 1 .. QMC_PROTO_PART_MAX_SUMS */
+    const qmc_sampling_sums *sums;
+    const uint8_t *raw;
+} qmc_msg_session_part_sums;
+
 typedef struct qmc_stat {
     qmc_str name;                 /* <= QMC_PROTO_MAX_NAME */
     uint64_t value;
@@ -424,6 +472,8 @@ typedef struct qmc_msg {
         qmc_msg_session_values session_values;
         qmc_msg_session_report session_report;
         qmc_msg_session_ref session_ref;  /* SESSION_RESUME, SESSION_CLOSE */
+        qmc_msg_session_part session_part;
+        qmc_msg_session_part_sums part_sums;
     } u;
 } qmc_msg;
 
@@ -456,7 +506,7 @@ QMC_MUST_CHECK int qmc_proto_encode(const qmc_msg *msg, uint8_t *buf,
 /* The oldest protocol version whose peers can decode msg (1 for anything
  * version 1 had): PIXELS and a fast-owen scramble need 4, SHM_ATTACH 2.  A
  * client compares it with the version HELLO_OK chose before sending; the
- * session messages need 5. */
+ * session messages need 5, and a SESSION_OPEN of a part 6. */
 unsigned qmc_proto_msg_min_version(const qmc_msg *msg);
 
 /* The frame length qmc_proto_encode would produce, or 0 if invalid. */
@@ -508,6 +558,10 @@ QMC_MUST_CHECK int qmc_proto_encode_session_values_prefix(uint64_t request_id,
 
 /* Element i of a decoded (or encoder-side) list. */
 double qmc_proto_f64_at(const qmc_f64s *list, uint32_t i);
+/* Record i of a SESSION_PART_SUMS (i < n), decoded or encoder-side, as
+ * qmc_session_part gives it (block = first + i). */
+void qmc_proto_part_sums_at(const qmc_msg_session_part_sums *p, uint32_t i,
+                            qmc_sampling_sums *out);
 /* Entry i of a decoded STATS_REPLY (i < count). */
 qmc_stat qmc_proto_stat_at(const qmc_msg_stats_reply *r, uint32_t i);
 

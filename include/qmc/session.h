@@ -147,7 +147,7 @@ QMC_MUST_CHECK int qmc_session_ask(qmc_session *s, qmc_session_batch *batch);
 
 /*
  * f at the points of batch seq, in order: values[0 .. count).  The values
- * are copied; NaN and infinities are taken as they are, counted, and
+ * are read before tell returns and not kept; NaN and infinities are taken as they are, counted, and
  * flagged by the integrator as for any integrand (QMC_FLAG_NONFINITE).
  * The integrator then runs on to its next batch (or to its end) before
  * tell returns.  Errors, with a reason, leaving the session as it was (the
@@ -177,10 +177,39 @@ QMC_MUST_CHECK int qmc_session_tell_to(qmc_session *s, uint64_t seq, const doubl
                                        size_t count, double *next, size_t next_points,
                                        char *why, size_t why_bytes);
 
+/*
+ * As qmc_session_tell_to, but it may return as soon as the next batch is
+ * assembled, before this batch's values are summed: when the integrator
+ * knows its next batch already (the next group of blocks of a sampling
+ * run: a fixed n's whole run, an adaptive round's replicate), it collects
+ * that batch, hands it out and returns with the session *behind*; the
+ * values are summed by qmc_session_catch_up, which the next tell, own_batch
+ * and free also do first.  So a server hands the next batch to its client
+ * first and sums this one while the client evaluates (docs/SESSIONS.md,
+ * "Telling ahead").  Only batches the integrator would ask for anyway are
+ * handed out early, and the result is the same bytes.  While behind, ask
+ * hands out the next batch, status counts the values told (its running
+ * estimate rests on the batches summed), and values is read: it must stay
+ * valid and unchanged until the catch-up.  Otherwise (a rule, the last
+ * group of a run) it is qmc_session_tell_to.  Errors as qmc_session_tell_to.
+ */
+QMC_MUST_CHECK int qmc_session_tell_ahead(qmc_session *s, uint64_t seq, const double *values,
+                                          size_t count, double *next, size_t next_points,
+                                          char *why, size_t why_bytes);
+
+/* 1 while values told ahead wait to be summed (0 for NULL). */
+int qmc_session_behind(const qmc_session *s);
+
+/* Sums the values a qmc_session_tell_ahead left, running the integrator on
+ * to where it waits for the next batch's values (or to its end, should
+ * the sums fail); a no-op when not behind (NULL too). */
+void qmc_session_catch_up(qmc_session *s);
+
 /* A waiting batch assembled in a caller's buffer (qmc_session_tell_to) is
  * copied into the session's own, which ask then hands out, so that buffer
- * may go; later batches are assembled in the session's own too.  No-op
- * otherwise (NULL too). */
+ * may go; later batches are assembled in the session's own too.  Catches
+ * up first (values told ahead may lie in that buffer).  No-op otherwise
+ * (NULL too). */
 void qmc_session_own_batch(qmc_session *s);
 
 typedef struct qmc_session_report {

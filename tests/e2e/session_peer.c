@@ -16,6 +16,16 @@
  *   session-peer steal ENDPOINT FILE         resume with FILE's ticket: prints
  *                                            the code and the message
  *   session-peer hostile ENDPOINT            NaN, Inf and 1e308 as values
+ *   session-peer part ENDPOINT K/P JOB...    a part session (protocol version
+ *                                            6): its sums must be libqmc's
+ *                                            in-process part's, bit for bit;
+ *                                            a refused open prints its code
+ *                                            and message (exit 0)
+ *   session-peer partdrop ENDPOINT FILE K/P JOB...   the same, but exits after
+ *                                            its last batch, before the sums,
+ *                                            its ticket in FILE
+ *   session-peer partresume ENDPOINT FILE K/P JOB... resumes it: done, and
+ *                                            the sums are the in-process part's
  *
  * JOB is `qmc integrate`'s: --integrand NAME --dims D --method M [--n N]
  * [--reps R] [--seed S] [--seq K] [--scramble S] [--split-net] [--tol-abs
@@ -274,6 +284,21 @@ static int cmd_asktell(const char *endpoint, job_args *j)
     return rc;
 }
 
+/* FILE: the session's id and token, the batch dropped (seq, count and a
+ * digest of its points), as read_ticket reads them. */
+static int write_ticket(const char *file, const qmc_client_session_ticket *t,
+                        unsigned long long seq, size_t count, unsigned long long dig)
+{
+    FILE *out = fopen(file, "w");
+    if (!out)
+        return fail("cannot write %s%s", file, "");
+    fprintf(out, "%llu ", (unsigned long long)t->session_id);
+    for (size_t i = 0; i < sizeof t->token; i++)
+        fprintf(out, "%02x", t->token[i]);
+    fprintf(out, " %llu %zu %016llx\n", seq, count, dig);
+    return fclose(out) == 0 ? 0 : fail("cannot write %s%s", file, "");
+}
+
 static int cmd_drop(const char *endpoint, const char *file, job_args *j)
 {
     qmc_client *c;
@@ -294,15 +319,8 @@ static int cmd_drop(const char *endpoint, const char *file, job_args *j)
         return fail("drop: %s%s", qmc_client_last_error(c), "");
     qmc_client_session_ticket t;
     qmc_client_session_ticket_get(s, &t);
-    FILE *out = fopen(file, "w");
-    if (!out)
-        return fail("cannot write %s%s", file, "");
-    fprintf(out, "%llu ", (unsigned long long)t.session_id);
-    for (size_t i = 0; i < sizeof t.token; i++)
-        fprintf(out, "%02x", t.token[i]);
-    fprintf(out, " %llu %zu %016llx\n", (unsigned long long)b.seq, b.count,
-            (unsigned long long)digest(b.points, b.count * b.dims));
-    fclose(out);
+    if (write_ticket(file, &t, b.seq, b.count, digest(b.points, b.count * b.dims)))
+        return 1;
     printf("dropped session %llu at batch %llu (%zu points)\n",
            (unsigned long long)t.session_id, (unsigned long long)b.seq, b.count);
     fflush(stdout);
@@ -377,6 +395,146 @@ static int cmd_steal(const char *endpoint, const char *file)
     return 0;
 }
 
+/* The session spec of part K/P of the job. */
+static int part_spec(const job_args *j, const char *kp, qmc_session_spec *ss)
+{
+    session_spec(j, ss);
+    char tail;
+    if (sscanf(kp, "%u/%u%c", &ss->part_k, &ss->part_p, &tail) != 2)
+        return fail("want K/P, not %s%s", kp, "");
+    return 0;
+}
+
+/* A part's answer through the daemon against libqmc's in-process one for
+ * the same spec and f: fingerprint, range, sampling spec, sums, bit for
+ * bit.  0 (and a line saying so) or 1. */
+static int same_as_here(const job_args *j, const qmc_session_spec *ss, const char *kp,
+                        const qmc_session_part_sums *wire)
+{
+    static double v[1 << 16];
+    qmc_session *ls = NULL;
+    qmc_session_part_sums here;
+    char why[256] = "";
+    int rc = 0;
+    if (qmc_session_new(ss, &ls, why, sizeof why) != 0)
+        return fail("in-process: %s%s", why, "");
+    for (;;) {
+        qmc_session_batch b;
+        if (qmc_session_ask(ls, &b) != 0 || b.count == 0)
+            break;
+        if (b.count > sizeof v / sizeof v[0]) {
+            rc = fail("a batch of %zu points%s", b.count, "");
+            break;
+        }
+        j->f->eval(j->f->ctx, b.points, b.count, b.dims, v);
+        if (qmc_session_tell(ls, b.seq, v, b.count, why, sizeof why) != 0) {
+            rc = fail("in-process tell: %s%s", why, "");
+            break;
+        }
+    }
+    if (rc == 0 && qmc_session_part(ls, &here) != 0)
+        rc = fail("in-process part failed%s%s", "", "");
+    if (rc == 0 &&
+        (wire->fingerprint != here.fingerprint || wire->blocks != here.blocks ||
+         wire->first != here.first || wire->count != here.count ||
+         memcmp(&wire->sampling, &here.sampling, sizeof here.sampling) != 0 ||
+         (here.count && memcmp(wire->sums, here.sums, here.count * sizeof *here.sums) != 0)))
+        rc = fail("part %s through the daemon differs from in-process%s", kp, "");
+    if (rc == 0)
+        printf("part %s: blocks %llu, first %llu, count %llu: the in-process sums\n", kp,
+               (unsigned long long)wire->blocks, (unsigned long long)wire->first,
+               (unsigned long long)wire->count);
+    qmc_session_free(ls);
+    return rc;
+}
+
+/* A part session's answer, here and through the daemon: the same.  With
+ * drop_file: answers every batch, then writes the ticket there and exits
+ * before reading the sums (the connection drops with the process, the
+ * daemon parks the session with its sums unsent). */
+static int cmd_part(const char *endpoint, const char *kp, const char *drop_file, job_args *j)
+{
+    qmc_session_spec ss;
+    if (part_spec(j, kp, &ss))
+        return 1;
+    qmc_client *c;
+    if (connect_to(endpoint, &c))
+        return 1;
+    qmc_client_session *s = NULL;
+    int r = qmc_client_session_open(c, &ss, &s);
+    if (r != 0) {
+        printf("refused %s: %s\n", qmc_err_name(r), qmc_client_last_error(c));
+        qmc_client_close(c);
+        return 0;
+    }
+    int rc = 0;
+    for (;;) {
+        qmc_session_batch b;
+        qmc_session_report rep;
+        if (qmc_client_session_next(s, &b) != 0) {
+            rc = fail("next: %s%s", qmc_client_last_error(c), "");
+            break;
+        }
+        if (b.count == 0)
+            break;
+        double *v = qmc_client_session_values(s);
+        j->f->eval(j->f->ctx, b.points, b.count, b.dims, v);
+        if (qmc_client_session_tell(s, b.seq, v, b.count) != 0) {
+            rc = fail("tell: %s%s", qmc_client_last_error(c), "");
+            break;
+        }
+        qmc_client_session_report(s, &rep);
+        if (drop_file && rep.end != QMC_SESSION_RUNNING) {
+            qmc_client_session_ticket t;
+            qmc_client_session_ticket_get(s, &t);
+            if (write_ticket(drop_file, &t, 0, 0, 0)) /* no batch waits */
+                return 1;
+            printf("dropped part %s after its last batch\n", kp);
+            fflush(stdout);
+            _exit(0);
+        }
+    }
+    qmc_session_part_sums wire;
+    if (rc == 0 && (r = qmc_client_session_part(s, &wire)) != 0)
+        rc = fail("part: %s %s", qmc_err_name(r), qmc_client_last_error(c));
+    if (rc == 0)
+        rc = same_as_here(j, &ss, kp, &wire);
+    qmc_client_session_free(s);
+    qmc_client_close(c);
+    return rc;
+}
+
+/* Resumes a part dropped by cmd_part after its last batch: the session
+ * is done, and its sums come whole on the new connection. */
+static int cmd_part_resume(const char *endpoint, const char *file, const char *kp,
+                           job_args *j)
+{
+    qmc_session_spec ss;
+    qmc_client_session_ticket t;
+    unsigned long long seq, dig;
+    size_t count;
+    if (part_spec(j, kp, &ss) || read_ticket(file, &t, &seq, &count, &dig))
+        return 1;
+    qmc_client *c;
+    if (connect_to(endpoint, &c))
+        return 1;
+    qmc_client_session *s;
+    qmc_session_batch b;
+    qmc_session_part_sums wire;
+    int rc = 0, r;
+    if (qmc_client_session_resume(c, &t, &s) != 0)
+        return fail("resume: %s%s", qmc_client_last_error(c), "");
+    if (qmc_client_session_next(s, &b) != 0 || b.count != 0)
+        rc = fail("a resumed finished part asked for more: %s%s", qmc_client_last_error(c), "");
+    else if ((r = qmc_client_session_part(s, &wire)) != 0)
+        rc = fail("part: %s %s", qmc_err_name(r), qmc_client_last_error(c));
+    if (rc == 0)
+        rc = same_as_here(j, &ss, kp, &wire);
+    qmc_client_session_free(s);
+    qmc_client_close(c);
+    return rc;
+}
+
 /* Values a caller may send that no integrand should: NaN, infinities, a
  * finite 1e308 whose square overflows.  qmcd counts and flags them. */
 static int cmd_hostile(const char *endpoint)
@@ -434,14 +592,18 @@ static int cmd_hostile(const char *endpoint)
 int main(int argc, char **argv)
 {
     if (argc < 3)
-        return fail("usage: session-peer run|asktell|drop|resume|steal|hostile ENDPOINT ...%s%s",
+        return fail("usage: session-peer run|asktell|drop|resume|steal|hostile|part|partdrop|"
+                    "partresume ENDPOINT ...%s%s",
                     "", "");
     const char *cmd = argv[1], *endpoint = argv[2];
     if (strcmp(cmd, "hostile") == 0)
         return cmd_hostile(endpoint);
     if (strcmp(cmd, "steal") == 0)
         return argc == 4 ? cmd_steal(endpoint, argv[3]) : fail("steal ENDPOINT FILE%s%s", "", "");
-    int file_arg = strcmp(cmd, "drop") == 0 || strcmp(cmd, "resume") == 0;
+    const int parts2 = strcmp(cmd, "partdrop") == 0 || strcmp(cmd, "partresume") == 0;
+    int file_arg = strcmp(cmd, "drop") == 0 || strcmp(cmd, "resume") == 0 ||
+                   strcmp(cmd, "part") == 0; /* part's K/P stands where the file would */
+    file_arg += 2 * parts2;                  /* FILE K/P */
     if (argc < 3 + file_arg)
         return fail("%s needs a file%s", cmd, "");
     job_args j;
@@ -456,6 +618,12 @@ int main(int argc, char **argv)
         rc = cmd_drop(endpoint, argv[3], &j);
     else if (strcmp(cmd, "resume") == 0)
         rc = cmd_resume(endpoint, argv[3], &j);
+    else if (strcmp(cmd, "part") == 0)
+        rc = cmd_part(endpoint, argv[3], NULL, &j);
+    else if (strcmp(cmd, "partdrop") == 0)
+        rc = cmd_part(endpoint, argv[4], argv[3], &j);
+    else if (strcmp(cmd, "partresume") == 0)
+        rc = cmd_part_resume(endpoint, argv[3], argv[4], &j);
     else
         rc = fail("unknown command %s%s", cmd, "");
     qmc_job_free(j.job);

@@ -4,7 +4,8 @@ section 6.21) spoken from the spec with struct and socket, for
 tests/e2e/test_sessions.sh: the frames a C client of libqmcclient never
 sends (hostile values, wrong counts, stale batches, values before and
 after a batch, malformed frames), the ring's values, takeover, close,
-expiry, ownership by address, the caps, and STATS.  Frames come from
+expiry, ownership by address, the caps, STATS, and a part session
+refused on version 5 (its sums need version 6).  Frames come from
 qmcpeer.py's codec (itself written from the spec); the session frames a
 client sends are built here.  Each scenario prints "ok NAME" or "FAIL NAME:
 why" lines.
@@ -445,8 +446,24 @@ def sc_stats(addr):
           "session_memory_reserved_bytes" in s, repr(sorted(k for k in s if "session" in k)))
 
 
+def sc_part5(addr):
+    """A part session (part_p != 0) on a connection that chose version 5:
+    its answer, block sums, has no message before version 6, so the open
+    is refused with ENOTSUP naming the version, and the connection serves
+    on (a whole session opens on it)."""
+    p = Peer(addr, version=5)
+    check("version 5 chosen", p.version == 5, repr(p.version))
+    rid = p.rid()
+    p.send(open_frame(rid, 2, part=(1, 2)))
+    expect_error(p, rid, -1012, "a part on version 5 is refused with ENOTSUP",
+                 "needs protocol version 6")
+    rid, opened, batch = start(p, dims=2)
+    check("a whole session opens on the same connection", opened["dims"] == 2)
+    p.close()
+
+
 SCENARIOS = {"hostile": sc_hostile, "ring": sc_ring, "resume": sc_resume,
-             "expire": sc_expire, "caps": sc_caps, "stats": sc_stats}
+             "expire": sc_expire, "caps": sc_caps, "stats": sc_stats, "part5": sc_part5}
 
 if __name__ == "__main__":
     try:

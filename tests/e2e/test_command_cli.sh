@@ -27,7 +27,8 @@
 #   6. The program's stderr passes through; SIGTERM and SIGINT of qmc
 #      kill and reap the program.
 #   7. --part K/P files merge into the whole run's bytes, and a part's
-#      block sums equal the built-in part's.
+#      block sums equal the built-in part's (through the daemon:
+#      test_session_parts.sh).
 #   8. Option errors: one line, exit 2; `qmc help integrate` and bash
 #      completion name the options.
 #   9. Remote (--connect, a session on qmcd) gives the in-process bytes,
@@ -444,8 +445,7 @@ opt_fails "want smooth, kinks, jumps or singular" --command cat --dims 1 --smoot
 opt_fails "name the PROGRAM" --command " " --dims 1
 opt_fails "one process" --command cat --dims 1 --threads 2
 opt_fails "--part splits sampling methods" --command cat --dims 1 --method cubature --part 1/2
-opt_fails "--part is an in-process option" --connect "unix:$tmp/none.sock" --command cat --dims 1 \
-    --method mc --part 1/2
+# (--part with --connect runs a part session on the daemon: test_session_parts.sh.)
 opt_fails "outside 1..1024" --integrand genz-gaussian --dims 2000
 
 # ---- help and completion name the options -----------------------------------------------

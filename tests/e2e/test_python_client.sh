@@ -9,8 +9,9 @@
 #     points, tiles and job JSON against the C CLI, the HMAC handshake
 #     against qmcd --auth-key, the scipy-style engines against scipy,
 #     integration sessions with Python functions equal to built-in
-#     integrands giving `qmc integrate`'s results bit for bit, resumed
-#     after a dropped connection;
+#     integrands giving `qmc integrate`'s results bit for bit and the
+#     JSON bytes `qmc integrate --command` prints for a program computing
+#     the same function, resumed after a dropped connection;
 #   - the package installs offline from a copy of the tree with Debian's
 #     pip and setuptools (pip install --no-build-isolation --target DIR)
 #     and, installed, talks to a daemon;

@@ -109,6 +109,19 @@ for mb in 100 4096 1048576; do
     fi
 done
 
+# Batches of more than half the ring (262144 points of 4 dims and their
+# values: three of its four 4 MiB slots), one after another: the client
+# gives the slots back at each report, or the next batch would wait for a
+# release that never comes (until write-timeout-ms) - the daemon sends each
+# batch right behind its report, before it sums the values.
+"$QMC" integrate --integrand genz-gaussian --dims 4 --method rqmc --n 65536 --json > "$tmp/cli.json"
+if $PEER asktell "$U" --integrand genz-gaussian --dims 4 --method rqmc --n 65536 \
+    --max-batch 262144 > "$tmp/peer.json" 2> "$tmp/peer.err"; then
+    same "rqmc, batches of 3/4 of the ring" "$tmp/peer.json" "$tmp/cli.json"
+else
+    bad "batches of 3/4 of the ring: $(cat "$tmp/peer.err")"
+fi
+
 # ---- 2. a dropped connection: resumed from another process -------------------------
 JOB="--integrand genz-product-peak --dims 5 --method rqmc --reps 16 --n 8192"
 # shellcheck disable=SC2086

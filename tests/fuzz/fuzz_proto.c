@@ -11,9 +11,13 @@
  * also decoded as every older protocol version: what an older version
  * accepts is the same message, re-encoded for that version to the same
  * bytes, and it refuses only a JOB_RESULT, SESSION_RESULT or
- * SESSION_REPORT with flags it does not define (PROTOCOL.md section 5).
+ * SESSION_REPORT with flags it does not define (PROTOCOL.md section 5) -
+ * and every JOB_RESULT and SESSION_RESULT below version 6, which appended
+ * the known integral of |f| (section 6.10): encoded for such a version the
+ * message is the frame without those 16 bytes, read back as "not told".
  * The session messages keep the bounds their receivers rely on (section
- * 6.21).  Decoding must
+ * 6.21), and a part's (6.22): its blocks are the ones part k/p cuts, its
+ * sums records fit a block and read back through qmc_proto_part_sums_at.  Decoding must
  * never touch memory outside the input (ASan) or read uninitialised state.
  *
  * The codec sources are compiled in here (with the fuzzer's coverage
@@ -27,7 +31,9 @@
 
 #include "../../protocol/codec.c"
 #include "../../protocol/fields.c"
+#include "../../protocol/known_abs.c"
 #include "../../protocol/messages.c"
+#include "../../protocol/messages_part.c"
 #include "../../protocol/result_flags.c"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -96,6 +102,29 @@ static int session_bounds_hold(const qmc_msg *m)
     case QMC_MSG_SESSION_RESUME:
         return m->u.session_ref.transport == QMC_TRANSPORT_INLINE ||
                m->u.session_ref.transport == QMC_TRANSPORT_SHM;
+    case QMC_MSG_SESSION_PART: {
+        const qmc_msg_session_part *p = &m->u.session_part;
+        return p->blocks >= 1 && p->blocks <= QMC_SAMPLING_MAX_BLOCKS && p->part_k >= 1 &&
+               p->part_k <= p->part_p && p->first == p->blocks * (p->part_k - 1) / p->part_p &&
+               p->first + p->count == p->blocks * p->part_k / p->part_p;
+    }
+    case QMC_MSG_SESSION_PART_SUMS: {
+        const qmc_msg_session_part_sums *p = &m->u.part_sums;
+        if (p->n == 0 || p->n > QMC_PROTO_PART_MAX_SUMS || p->raw == NULL ||
+            p->first + p->n > QMC_SAMPLING_MAX_BLOCKS)
+            return 0;
+        for (uint32_t i = 0; i < p->n; i++) {
+            qmc_sampling_sums s;
+            qmc_proto_part_sums_at(p, i, &s);
+            if (s.block != p->first + i || s.count > QMC_SAMPLING_BLOCK ||
+                s.nonfinite > s.count || !(s.top[QMC_SAMPLING_TOP - 1] >= 0.0))
+                return 0;
+            for (int k = 1; k < QMC_SAMPLING_TOP; k++)
+                if (!(s.top[k] <= s.top[k - 1]))
+                    return 0;
+        }
+        return 1;
+    }
     default:
         return 1;
     }
@@ -143,6 +172,23 @@ static void check_stream(const uint8_t *data, size_t size, uint32_t max_payload)
         for (unsigned v = 1; v < QMC_PROTO_VERSION_MAX; v++) {
             qmc_msg mv;
             int nv = qmc_proto_decode_version(data + off, size - off, max_payload, v, &mv);
+            if ((m.type == QMC_MSG_JOB_RESULT || m.type == QMC_MSG_SESSION_RESULT) &&
+                v < QMC_PROTO_VERSION_KNOWN_ABS) {
+                if (nv != QMC_EPROTO)
+                    __builtin_trap();
+                if (*result_flags(&m) & ~qmc_proto_result_flags_defined(v))
+                    continue; /* projected flags: test_proto_flags.c's matter */
+                const int short_n = n - (int)QMC__KNOWN_ABS_BYTES;
+                if (qmc_proto_encode_version(&m, v, again, QMC_PROTO_HEADER_BYTES +
+                                                               QMC_PROTO_MAX_PAYLOAD) != short_n ||
+                    memcmp(again + QMC_PROTO_HEADER_BYTES, data + off + QMC_PROTO_HEADER_BYTES,
+                           (size_t)short_n - QMC_PROTO_HEADER_BYTES) != 0 ||
+                    qmc_proto_decode_version(again, (size_t)short_n, max_payload, v, &mv) !=
+                        short_n ||
+                    mv.u.result.has_known_abs != -1)
+                    __builtin_trap();
+                continue;
+            }
             if (nv == QMC_EPROTO) {
                 if (result_flags(&m) == NULL ||
                     (*result_flags(&m) & ~qmc_proto_result_flags_defined(v)) == 0)

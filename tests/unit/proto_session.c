@@ -17,6 +17,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "proto_check.h"
 #include "proto_session.h"
 
 /* The example's token: the bytes 0x80 .. 0x9f (a real one comes from the
@@ -255,20 +256,13 @@ void proto_session_build(qmc_msg_type type, int variant, qmc_msg *m)
     }
 }
 
-static void same_f64(double a, double b)
-{
-    uint64_t x, y;
-    memcpy(&x, &a, 8);
-    memcpy(&y, &b, 8);
-    assert_true(x == y);
-}
 
 static void same_spec(const qmc_session_spec *s, const qmc_session_spec *t)
 {
     assert_int_equal(s->dims, t->dims);
     assert_int_equal(s->smoothness, t->smoothness);
     assert_int_equal(s->has_exact != 0, t->has_exact != 0);
-    same_f64(s->exact, t->exact);
+    proto_same_f64(s->exact, t->exact);
     assert_string_equal(s->name, t->name);
     assert_true(s->max_batch == t->max_batch);
     assert_int_equal(s->part_k, t->part_k);
@@ -277,8 +271,8 @@ static void same_spec(const qmc_session_spec *s, const qmc_session_spec *t)
     assert_int_equal(a->method, b->method);
     assert_int_equal(a->n_given != 0, b->n_given != 0);
     assert_int_equal(a->n_axis, b->n_axis);
-    same_f64(a->tol_abs, b->tol_abs);
-    same_f64(a->tol_rel, b->tol_rel);
+    proto_same_f64(a->tol_abs, b->tol_abs);
+    proto_same_f64(a->tol_rel, b->tol_rel);
     assert_true(a->max_evals == b->max_evals);
     assert_true(a->max_memory == b->max_memory);
     assert_int_equal(a->sampling.sampler, b->sampling.sampler);
@@ -289,7 +283,7 @@ static void same_spec(const qmc_session_spec *s, const qmc_session_spec *t)
     assert_true(a->sampling.n == b->sampling.n);
     assert_int_equal(a->sampling.reps, b->sampling.reps);
     assert_int_equal(a->sampling.split_net != 0, b->sampling.split_net != 0);
-    same_f64(a->sampling.confidence, b->sampling.confidence);
+    proto_same_f64(a->sampling.confidence, b->sampling.confidence);
     /* The hook is in-process only: a decoded spec has none. */
     assert_null(b->interrupt.fn);
 }
@@ -303,11 +297,11 @@ static void same_report(const qmc_session_report *p, const qmc_session_report *q
     assert_true(p->nonfinite == q->nonfinite);
     assert_int_equal(p->has_estimate != 0, q->has_estimate != 0);
     const qmc_result *a = &p->running, *b = &q->running;
-    same_f64(a->estimate, b->estimate);
-    same_f64(a->error, b->error);
-    same_f64(a->ci_low, b->ci_low);
-    same_f64(a->ci_high, b->ci_high);
-    same_f64(a->abs_integral, b->abs_integral);
+    proto_same_f64(a->estimate, b->estimate);
+    proto_same_f64(a->error, b->error);
+    proto_same_f64(a->ci_low, b->ci_low);
+    proto_same_f64(a->ci_high, b->ci_high);
+    proto_same_f64(a->abs_integral, b->abs_integral);
     assert_int_equal(a->error_kind, b->error_kind);
     assert_true(a->n == b->n);
     assert_true(a->evals == b->evals);

@@ -134,6 +134,80 @@ outcome session_test_drive(qmc_session *s, const qmc_integrand *f)
     return o;
 }
 
+/* As session_test_drive, each batch told ahead (qmc_session_tell_ahead):
+ * the values of even batches caught up at once (then their buffer is
+ * scribbled over: nothing may read it later), those of odd batches left
+ * for the next tell to sum.  Two value buffers in turn, as a client
+ * evaluating batch k + 1 while k's values wait. */
+void session_test_drive_ahead(qmc_session *s, const qmc_integrand *f, outcome *o)
+{
+    double *vals[2] = {NULL, NULL};
+    size_t cap[2] = {0, 0};
+    o->batches = o->largest = o->behind = 0;
+    uint64_t seq0 = 0;
+    for (;;) {
+        qmc_session_batch b;
+        assert_int_equal(qmc_session_ask(s, &b), 0);
+        if (b.count == 0) {
+            assert_int_not_equal(b.end, QMC_SESSION_RUNNING);
+            break;
+        }
+        if (o->batches == 0)
+            seq0 = b.seq;
+        assert_int_equal(b.seq, seq0 + o->batches);
+        /* Only this batch's buffer grows: the other may hold values told
+         * ahead, still to be summed. */
+        const int w = (int)(o->batches % 2);
+        if (b.count > cap[w]) {
+            free(vals[w]);
+            cap[w] = b.count;
+            vals[w] = malloc(cap[w] * sizeof *vals[w]);
+            assert_non_null(vals[w]);
+        }
+        double *v = vals[w];
+        f->eval(f->ctx, b.points, b.count, b.dims, v);
+        char why[256];
+        int err = qmc_session_tell_ahead(s, b.seq, v, b.count, NULL, 0, why, sizeof why);
+        if (err)
+            fail_msg("tell ahead: %s", why);
+        qmc_session_report st;
+        qmc_session_status(s, &st);
+        assert_int_equal(st.batches, o->batches + 1); /* told, summed or not */
+        if (qmc_session_behind(s)) {
+            o->behind++;
+            qmc_session_batch next;
+            assert_int_equal(qmc_session_ask(s, &next), 0);
+            assert_int_equal(next.seq, b.seq + 1); /* handed out before the sums */
+            assert_true(next.count > 0);
+            if (o->batches % 2 == 0) {
+                qmc_session_catch_up(s);
+                assert_false(qmc_session_behind(s));
+                memset(v, 0xff, b.count * sizeof *v); /* NaNs, read by no one */
+            }
+        }
+        o->batches++;
+        o->largest = b.count > o->largest ? b.count : o->largest;
+    }
+    assert_false(qmc_session_behind(s));
+    free(vals[0]);
+    free(vals[1]);
+    o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
+    qmc_session_status(s, &o->status);
+}
+
+outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f)
+{
+    outcome o;
+    memset(&o, 0, sizeof o);
+    qmc_session *s = NULL;
+    o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
+    if (o.err)
+        return o;
+    session_test_drive_ahead(s, f, &o);
+    qmc_session_free(s);
+    return o;
+}
+
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f)
 {
     outcome o;

@@ -59,6 +59,7 @@ typedef struct outcome {
     char why[512];
     qmc_session_report status;
     uint64_t batches, largest;
+    uint64_t behind;       /* tells ahead that returned behind */
 } outcome;
 
 /* The session's result and status as they stand (batches and largest 0). */
@@ -68,8 +69,13 @@ outcome session_test_outcome(qmc_session *s);
  * numbers and the end reason, then takes the result and the status. */
 outcome session_test_drive(qmc_session *s, const qmc_integrand *f);
 
+/* The same, each batch told ahead (qmc_session_tell_ahead): half the
+ * catch-ups explicit, half left to the next tell; counts o->behind. */
+void session_test_drive_ahead(qmc_session *s, const qmc_integrand *f, outcome *o);
+
 /* Opens a session on ss, drives it with f and frees it. */
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f);
+outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f);
 outcome session_test_via_integrate(const qmc_integrate_spec *is, const qmc_integrand *f);
 
 /* Fails unless the two outcomes have the same return value and the same

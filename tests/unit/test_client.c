@@ -165,6 +165,7 @@ struct fake {
     uint8_t out[1 << 20];
     int arg;
     uint64_t max_points;      /* what HELLO_OK says */
+    unsigned version;         /* what HELLO_OK chose: frames are laid out for it */
 };
 
 /* The fake's max_points unless a test asks for less (fake_start_limited). */
@@ -243,7 +244,8 @@ static int write_all(int fd, const void *buf, size_t n)
 
 static void srv_send(fake *f, int fd, qmc_msg *m)
 {
-    int n = qmc_proto_encode(m, f->out, sizeof f->out);
+    int n = qmc_proto_encode_version(m, f->version ? f->version : QMC_PROTO_VERSION_MAX,
+                                     f->out, sizeof f->out);
     if (n < 0) {
         fake_bad(f, "encode failed");
         return;
@@ -293,6 +295,7 @@ static int srv_hello_v(fake *f, int fd, uint16_t version)
     m.request_id = id;
     m.u.hello_ok.version = version;
     m.u.hello_ok.max_frame = 1u << 20;
+    f->version = version;
     m.u.hello_ok.max_inflight = 4;
     m.u.hello_ok.max_points = f->max_points;
     m.u.hello_ok.sobol_table_hash = 0x0123456789abcdefull;
@@ -807,6 +810,7 @@ static void test_jobs(void **state)
     assert_non_null(r);
     assert_int_equal(qmc_client_wait(c, 41, 1, r), 0);
     assert_true(r->job_id == 41 && r->res.estimate == 0.49 && r->seconds == 0.25);
+    assert_int_equal(r->has_known_abs, -1); /* a version-1 server did not say */
     assert_int_equal(r->method_used, QMC_METHOD_RQMC);
     assert_int_equal(r->reference_kind, 1);
     assert_string_equal(r->detail, "sobol owen, 16 x 4096 points");

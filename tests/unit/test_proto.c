@@ -23,6 +23,8 @@
 #include <string.h>
 
 #include "codec.h"
+#include "proto_check.h"
+#include "proto_part.h"
 #include "proto_session.h"
 #include "qmc/proto.h"
 /* The handshake's worked example (vector 0): real nonces and MACs. */
@@ -180,6 +182,8 @@ static void build_result(qmc_msg *m, int variant)
         r->reference = 0.3126145;
         r->detail = str_of("sobol owen, 16 x 4096 points");
         r->auto_reason = str_of("");
+        r->has_known_abs = 1; /* version 6: a positive f's, its exact value */
+        r->known_abs = 0.3126145;
         return;
     }
     r->job_id = UINT64_MAX;
@@ -212,6 +216,8 @@ static void build_result(qmc_msg *m, int variant)
     r->reference = -DBL_MIN;
     r->detail = text_of_len(QMC_PROTO_MAX_MESSAGE);
     r->auto_reason = text_of_len(QMC_PROTO_MAX_MESSAGE);
+    r->has_known_abs = 1;
+    r->known_abs = DBL_MAX;
 }
 
 /* Builds a message of each type: the documented example, the smallest
@@ -297,8 +303,11 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
     case QMC_MSG_SESSION_RESULT: /* the same layout: session 5, request 11 */
         m->request_id = ex ? (type == QMC_MSG_JOB_RESULT ? 4 : 11) : m->request_id;
         build_result(m, variant);
-        if (ex && type == QMC_MSG_SESSION_RESULT)
+        if (ex && type == QMC_MSG_SESSION_RESULT) {
             m->u.result.job_id = 5;
+            m->u.result.has_known_abs = 0; /* a session's f: nothing known */
+            m->u.result.known_abs = 0;
+        }
         break;
     case QMC_MSG_JOB_STATE:
         m->request_id = ex ? 5 : m->request_id;
@@ -393,18 +402,15 @@ static void build(qmc_msg_type type, int variant, qmc_msg *m)
     case QMC_MSG_SESSION_CLOSE:
         proto_session_build(type, variant, m); /* proto_session.c */
         break;
+    case QMC_MSG_SESSION_PART:
+    case QMC_MSG_SESSION_PART_SUMS:
+        proto_part_build(type, variant, m); /* proto_part.c */
+        break;
     }
 }
 
 /* ---- field-by-field comparison ------------------------------------------- */
 
-static void same_f64(double a, double b)
-{
-    uint64_t x, y;
-    memcpy(&x, &a, 8);
-    memcpy(&y, &b, 8);
-    assert_true(x == y); /* bit for bit: NaN payloads and -0.0 included */
-}
 
 static void same_str(qmc_str a, qmc_str b)
 {
@@ -417,7 +423,7 @@ static void same_list(const qmc_f64s *a, const qmc_f64s *b)
 {
     assert_int_equal(a->count, b->count);
     for (uint32_t i = 0; i < a->count; i++)
-        same_f64(qmc_proto_f64_at(a, i), qmc_proto_f64_at(b, i));
+        proto_same_f64(qmc_proto_f64_at(a, i), qmc_proto_f64_at(b, i));
 }
 
 static void same_sampling(const qmc_sampling_spec *a, const qmc_sampling_spec *b)
@@ -429,7 +435,7 @@ static void same_sampling(const qmc_sampling_spec *a, const qmc_sampling_spec *b
     assert_true(a->seed == b->seed);
     assert_true(a->n == b->n);
     assert_int_equal(a->reps, b->reps);
-    same_f64(a->confidence, b->confidence);
+    proto_same_f64(a->confidence, b->confidence);
 }
 
 static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *b)
@@ -440,15 +446,15 @@ static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *
     assert_int_equal(s->dims, t->dims);
     assert_int_equal(s->difficulty, t->difficulty);
     assert_int_equal(s->strategy, t->strategy);
-    same_f64(s->beta, t->beta);
+    proto_same_f64(s->beta, t->beta);
     assert_int_equal(s->samples_brdf, t->samples_brdf);
     assert_int_equal(s->samples_light, t->samples_light);
     assert_int_equal(s->integrate.method, t->integrate.method);
     same_sampling(&s->integrate.sampling, &t->integrate.sampling);
     assert_int_equal(s->integrate.n_given != 0, t->integrate.n_given != 0);
     assert_int_equal(s->integrate.n_axis, t->integrate.n_axis);
-    same_f64(s->integrate.tol_abs, t->integrate.tol_abs);
-    same_f64(s->integrate.tol_rel, t->integrate.tol_rel);
+    proto_same_f64(s->integrate.tol_abs, t->integrate.tol_abs);
+    proto_same_f64(s->integrate.tol_rel, t->integrate.tol_rel);
     assert_true(s->integrate.max_evals == t->integrate.max_evals);
     assert_true(s->integrate.max_memory == t->integrate.max_memory);
     same_list(&a->a, &b->a);
@@ -464,27 +470,29 @@ static void same_integrate(const qmc_msg_integrate *a, const qmc_msg_integrate *
 static void same_result(const qmc_msg_job_result *a, const qmc_msg_job_result *b)
 {
     assert_true(a->job_id == b->job_id);
-    same_f64(a->res.estimate, b->res.estimate);
-    same_f64(a->res.error, b->res.error);
-    same_f64(a->res.ci_low, b->res.ci_low);
-    same_f64(a->res.ci_high, b->res.ci_high);
+    proto_same_f64(a->res.estimate, b->res.estimate);
+    proto_same_f64(a->res.error, b->res.error);
+    proto_same_f64(a->res.ci_low, b->res.ci_low);
+    proto_same_f64(a->res.ci_high, b->res.ci_high);
     assert_int_equal(a->res.error_kind, b->res.error_kind);
     assert_true(a->res.n == b->res.n);
     assert_true(a->res.evals == b->res.evals);
     assert_int_equal(a->res.dims, b->res.dims);
     assert_int_equal(a->res.flags, b->res.flags);
     assert_true(a->res.nonfinite == b->res.nonfinite);
-    same_f64(a->res.abs_integral, b->res.abs_integral);
+    proto_same_f64(a->res.abs_integral, b->res.abs_integral);
     assert_int_equal(a->cv.used != 0, b->cv.used != 0);
-    same_f64(a->cv.beta, b->cv.beta);
-    same_f64(a->cv.variance_ratio, b->cv.variance_ratio);
+    proto_same_f64(a->cv.beta, b->cv.beta);
+    proto_same_f64(a->cv.variance_ratio, b->cv.variance_ratio);
     assert_int_equal(a->method_used, b->method_used);
     same_sampling(&a->sampling, &b->sampling);
-    same_f64(a->seconds, b->seconds);
+    proto_same_f64(a->seconds, b->seconds);
     assert_int_equal(a->reference_kind, b->reference_kind);
-    same_f64(a->reference, b->reference);
+    proto_same_f64(a->reference, b->reference);
     same_str(a->detail, b->detail);
     same_str(a->auto_reason, b->auto_reason);
+    assert_int_equal(a->has_known_abs, b->has_known_abs);
+    proto_same_f64(a->known_abs, b->known_abs);
 }
 
 static void same_msg(const qmc_msg *a, const qmc_msg *b)
@@ -544,7 +552,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_JOB_PROGRESS:
         assert_true(a->u.progress.job_id == b->u.progress.job_id);
         assert_true(a->u.progress.evals == b->u.progress.evals);
-        same_f64(a->u.progress.seconds, b->u.progress.seconds);
+        proto_same_f64(a->u.progress.seconds, b->u.progress.seconds);
         break;
     case QMC_MSG_JOB_RESULT:
     case QMC_MSG_SESSION_RESULT:
@@ -554,7 +562,7 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
         assert_true(a->u.state.job_id == b->u.state.job_id);
         assert_int_equal(a->u.state.state, b->u.state.state);
         assert_true(a->u.state.evals == b->u.state.evals);
-        same_f64(a->u.state.seconds, b->u.state.seconds);
+        proto_same_f64(a->u.state.seconds, b->u.state.seconds);
         break;
     case QMC_MSG_STATS:
         break;
@@ -626,23 +634,23 @@ static void same_msg(const qmc_msg *a, const qmc_msg *b)
     case QMC_MSG_SESSION_CLOSE:
         proto_session_same(a, b);
         break;
+    case QMC_MSG_SESSION_PART:
+    case QMC_MSG_SESSION_PART_SUMS:
+        proto_part_same(a, b);
+        break;
     }
 }
 
 /* ---- helpers --------------------------------------------------------------- */
 
-#define BIG (QMC_PROTO_HEADER_BYTES + QMC_PROTO_CHUNK_BYTES + 64)
+#define BIG PROTO_CHECK_FRAME_BYTES
 static uint8_t frame[BIG];
 static uint8_t frame2[BIG];
 
 /* Encodes m into frame; returns the length (asserting encoded_size agrees). */
 static size_t encode_ok(const qmc_msg *m)
 {
-    int n = qmc_proto_encode(m, frame, sizeof frame);
-    if (n < 0)
-        fail_msg("encoding %s failed: %d", qmc_msg_type_name(m->type), n);
-    assert_int_equal((size_t)n, qmc_proto_encoded_size(m));
-    return (size_t)n;
+    return proto_encode_into(m, frame, sizeof frame);
 }
 
 static int decode(const uint8_t *buf, size_t len, qmc_msg *out)
@@ -671,10 +679,14 @@ static void test_roundtrip(void **state)
             assert_int_equal(qmc_proto_encode(&d, frame2, sizeof frame2), (int)n);
             assert_memory_equal(frame, frame2, n);
             /* The minimal and maximal variants sit exactly on the table's
-             * payload bounds. */
+             * payload bounds - which span every version: a result's
+             * smallest frame is version 5's, without version 6's tail. */
             const qmc__layout *lay = qmc__proto_layout(all_types[t]);
+            const int result = all_types[t] == QMC_MSG_JOB_RESULT ||
+                               all_types[t] == QMC_MSG_SESSION_RESULT;
             if (v == MINIMAL)
-                assert_int_equal(n - QMC_PROTO_HEADER_BYTES, lay->min_payload);
+                assert_int_equal(n - QMC_PROTO_HEADER_BYTES,
+                                 lay->min_payload + (result ? QMC__KNOWN_ABS_BYTES : 0));
             if (v == MAXIMAL)
                 assert_int_equal(n - QMC_PROTO_HEADER_BYTES, lay->max_payload);
         }
@@ -732,7 +744,7 @@ static void test_bad_header(void **state)
     static const struct {
         size_t off;
         uint8_t value;
-    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 34}, {5, 255},
+    } bad[] = {{0, 'q'}, {3, 'X'}, {4, 0}, {4, 2}, {5, 0}, {5, 38}, {5, 255},
                {6, 1}, {7, 0x80}, {20, 1}, {23, 0x80}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         memcpy(frame2, frame, n);
@@ -816,13 +828,10 @@ enum {
     I_SCENE = I_U + 4 + 24
 };
 
-typedef struct mutation {
-    qmc_msg_type type;
-    uint32_t off;     /* in the payload */
-    int width;        /* 1, 2, 4 or 8 bytes, little-endian */
-    uint64_t value;
-    const char *what;
-} mutation;
+/* Where the JOB_RESULT example's version-6 tail starts. */
+enum { R_TAIL = 160 + 2 + 28 + 2 };
+
+typedef proto_mutation mutation; /* proto_check.h */
 
 static const mutation mutations[] = {
     {QMC_MSG_HELLO, 0, 2, 0, "version_min 0"},
@@ -899,6 +908,14 @@ static const mutation mutations[] = {
     {QMC_MSG_JOB_RESULT, 157, 3, 1, "reserved"},
     {QMC_MSG_JOB_RESULT, 160, 2, QMC_PROTO_MAX_MESSAGE + 1, "detail over its limit"},
     {QMC_MSG_JOB_RESULT, 160, 2, 40, "detail past the payload"},
+    /* Version 6's tail, after the 28-byte detail and the empty auto_reason. */
+    {QMC_MSG_JOB_RESULT, R_TAIL, 1, 2, "has_known_abs 2"},
+    {QMC_MSG_JOB_RESULT, R_TAIL, 1, 0, "an unknown integral of |f| with a value"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 1, 1, 1, "reserved"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 7, 1, 1, "reserved"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0x7ff8000000000000u, "known_abs NaN"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0x7ff0000000000000u, "known_abs inf"},
+    {QMC_MSG_JOB_RESULT, R_TAIL + 8, 8, 0xbff0000000000000u, "known_abs -1"},
     {QMC_MSG_STATS_REPLY, 0, 4, 4, "count past the payload"},
     {QMC_MSG_STATS_REPLY, 0, 4, 2, "count leaves bytes over"},
     {QMC_MSG_STATS_REPLY, 0, 4, QMC_PROTO_MAX_STATS, "count past the payload"},
@@ -942,30 +959,15 @@ static const mutation mutations[] = {
 static void test_mutations(void **state)
 {
     (void)state;
-    for (size_t i = 0; i < sizeof mutations / sizeof mutations[0]; i++) {
-        const mutation *mu = &mutations[i];
-        qmc_msg m, d;
-        build(mu->type, EXAMPLE, &m);
-        size_t n = encode_ok(&m);
-        uint8_t *p = frame + QMC_PROTO_HEADER_BYTES + mu->off;
-        assert_true(QMC_PROTO_HEADER_BYTES + mu->off + (size_t)mu->width <= n);
-        for (int k = 0; k < mu->width; k++)
-            p[k] = (uint8_t)(mu->value >> (8 * k));
-        int got = decode(frame, n, &d);
-        if (got != QMC_EPROTO)
-            fail_msg("%s: %s decoded to %d", qmc_msg_type_name(mu->type), mu->what, got);
-        assert_int_equal(d.type, 0); /* the message is cleared on error */
-    }
+    proto_check_mutations(mutations, sizeof mutations / sizeof mutations[0], build, EXAMPLE,
+                          frame, sizeof frame);
 }
 
 /* ---- the encoder's refusals ---------------------------------------------------------- */
 
 static void refuse(const qmc_msg *m, const char *what)
 {
-    int got = qmc_proto_encode(m, frame, sizeof frame);
-    if (got != QMC_EINVAL)
-        fail_msg("encoding %s with %s gave %d", qmc_msg_type_name(m->type), what, got);
-    assert_int_equal(qmc_proto_encoded_size(m), 0);
+    proto_check_refused(m, what, frame, sizeof frame);
 }
 
 static void test_encoder_refuses(void **state)
@@ -1062,6 +1064,15 @@ static void test_encoder_refuses(void **state)
     m.u.result.detail.ptr = over;
     m.u.result.detail.len = QMC_PROTO_MAX_MESSAGE + 1;
     refuse(&m, "a long detail");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.has_known_abs = -1;
+    refuse(&m, "a known integral of |f| never told (a version-5 frame's)");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.known_abs = -0.5;
+    refuse(&m, "a negative integral of |f|");
+    build(QMC_MSG_JOB_RESULT, EXAMPLE, &m);
+    m.u.result.has_known_abs = 0;
+    refuse(&m, "an unknown integral of |f| with a value");
 
     build(QMC_MSG_STATS_REPLY, EXAMPLE, &m);
     m.u.stats.count = QMC_PROTO_MAX_STATS + 1;
@@ -1233,15 +1244,22 @@ static void test_utf8(void **state)
 
 /* ---- the worked examples (tests/vectors/proto) ----------------------------------------- */
 
-static void vector_path(qmc_msg_type type, char *path, size_t bytes)
+/* A message of version 6 or later (by qmc_proto_msg_min_version of its
+ * example) has its vector in VECTOR_DIR/v<N>/, so that a client of an
+ * older version that reads every vector of VECTOR_DIR (client/python's
+ * tests do) meets only messages it knows. */
+static void vector_path(const qmc_msg *m, char *path, size_t bytes)
 {
-    char name[32];
-    const char *s = qmc_msg_type_name(type);
+    char name[32], sub[16] = "";
+    const char *s = qmc_msg_type_name(m->type);
     size_t i = 0;
     for (; s[i] && i + 1 < sizeof name; i++)
         name[i] = (char)tolower((unsigned char)s[i]);
     name[i] = '\0';
-    snprintf(path, bytes, "%s/%s.hex", VECTOR_DIR, name);
+    const unsigned v = qmc_proto_msg_min_version(m);
+    if (v > QMC_PROTO_VERSION_SESSIONS)
+        snprintf(sub, sizeof sub, "v%u/", v);
+    snprintf(path, bytes, "%s/%s%s.hex", VECTOR_DIR, sub, name);
 }
 
 /* Header on the first line, then the payload 16 bytes a line. */
@@ -1315,7 +1333,7 @@ static void test_vectors(void **state)
         char path[128];
         build(all_types[t], EXAMPLE, &m);
         size_t n = encode_ok(&m);
-        vector_path(all_types[t], path, sizeof path);
+        vector_path(&m, path, sizeof path);
         if (write) {
             write_vector(path, frame, n);
             continue;

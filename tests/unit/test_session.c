@@ -148,6 +148,13 @@ static void test_every_method_bit_for_bit(void **state)
             if (batches[k])
                 assert_true(got.largest <= (batches[k] > 256 ? batches[k] : 256) ||
                             c->expect == QMC_METHOD_RQMC /* the map's pilot chunks */);
+            /* Told ahead: the same bytes, the same batches - none handed
+             * out that the integrator did not want - and the same count. */
+            outcome ahead = session_test_via_session_ahead(&ss, p.f);
+            session_test_assert_same(&ahead, &want, what);
+            assert_int_equal(ahead.batches, got.batches);
+            assert_int_equal(ahead.status.evals, want.rep.res.evals);
+            assert_true(test_same_result(&ahead.status.running, &want.rep.res));
         }
         qmc_testfn_free(p.fn);
     }

@@ -23,15 +23,10 @@ _U64 = 2**64 - 1
 
 class JobRequest:
     """An INTEGRATE request's fields, and what the report needs of the
-    request: the label, the method asked for, the confidence, the
-    integrand's parameters."""
+    request: the label, the method asked for, the confidence."""
 
     def __init__(self, fields, label, method, confidence):
         self.fields, self.label, self.method, self.confidence = fields, label, method, confidence
-
-    def known_abs(self, reference_kind, reference):
-        """The integral of |f| the CLI would know in closed form, or None."""
-        return known_abs_integral(self.fields, reference_kind, reference)
 
 
 def _u(name, v, lo, hi):
@@ -278,41 +273,6 @@ def _client_text(s, limit):
     return b[:limit - 1].decode("utf-8", errors="replace")
 
 
-def _abs_cos_integral(a):
-    """int_0^1 |cos(a x)| dx, as core/testfn_1d.c computes it."""
-    pi = 3.14159265358979323846
-    periods = math.floor(a / pi)
-    r = a - periods * pi
-    part = math.sin(r) if r <= 0.5 * pi else 2.0 - math.sin(r)
-    return (2.0 * periods + part) / a
-
-
-def known_abs_integral(fields, reference_kind, reference):
-    """The integral of |f| the integrand knows in closed form, or None
-    (include/qmc/testfn.h: it is the exact value for the positive
-    functions, 1 for log, a closed form for cos, and unknown for
-    genz-oscillatory and a poly with a negative coefficient; a scene's is
-    its exact value).  Only where the exact value is known: the positive
-    Genz families give up both together (underflow, an untrusted corner
-    peak).  The CLI reads it from libqmc; it is not on the wire."""
-    if reference_kind != "exact":
-        return None
-    name = fields["integrand"]
-    if not name:
-        return reference
-    if name == "genz-oscillatory":
-        return None
-    if name == "poly":
-        coefs = fields["a"] or (0, 0, 0, 0, 0, 1)  # the default x^5
-        return reference if all(c >= 0 for c in coefs) else None
-    if name == "cos":
-        v = _abs_cos_integral(fields["a"][0] if fields["a"] else 1.0)
-        return v if math.isfinite(v) else None
-    if name == "log":
-        return 1.0
-    return reference
-
-
 class JobResult:
     """An integration result: the daemon's JOB_RESULT and what the report
     derives from it.
@@ -324,7 +284,11 @@ class JobResult:
     and flag_bits; meanings() (key -> what it means, docs/FLAGS.md); n,
     evals, dims, nonfinite; method (asked) and method_used; detail and
     auto_reason; reference and reference_kind ("exact", "reference" or
-    "none") and exact (None unless exact); cv_used, cv_beta,
+    "none") and exact (None unless exact); abs_integral (the integrator's
+    estimate of the integral of |f|) and known_abs (that integral in
+    closed form, as the daemon knows it; None when unknown, or when a
+    daemon of protocol version 5 or older did not say: known_abs_told);
+    cv_used, cv_beta,
     cv_variance_ratio; seconds (the daemon's compute time); sampling (the
     spec that ran, a dict); job_id.  json() is `qmc integrate --json`.
     """
@@ -353,6 +317,9 @@ class JobResult:
         self.reference = None if self.reference_kind == "none" else msg["reference"]
         self.exact = self.reference if self.reference_kind == "exact" else None
         self.abs_integral = msg["abs_integral"]
+        # Protocol version 6: the daemon says what the integrand knows.
+        self.known_abs_told = "has_known_abs" in msg
+        self.known_abs = msg["known_abs"] if msg.get("has_known_abs") else None
         self.detail = msg["detail"]
         self.auto_reason = msg["auto_reason"]
         self.sampling = msg["sampling"]
@@ -379,8 +346,7 @@ class JobResult:
         ref = self.reference if has_ref else math.nan
         est = self.estimate
         err = est - ref
-        known = self.request.known_abs(self.reference_kind, self.reference)
-        absint = known if known is not None else (
+        absint = self.known_abs if self.known_abs is not None else (
             self.abs_integral if self.abs_integral > 0 else math.nan)
         kind = self.error_kind
         raw = self.raw

@@ -23,6 +23,8 @@ ring slot before the values in it are sent, or keep a view of the ring
 past the batch it belongs to (the arrays handed out are valid until the
 next tell()).
 """
+import time
+
 import numpy as np
 
 from . import wire
@@ -73,11 +75,17 @@ class SessionReport:
 
 class SessionRequest(JobRequest):
     """What a session's report needs of its request: the label (the
-    function's name, or "f"), the method asked for, the confidence.  A
-    caller's function has no integral of |f| known in closed form."""
+    function's name in full, or "f"), the method asked for, the
+    confidence."""
 
-    def known_abs(self, reference_kind, reference):
-        return None
+
+def _wire_name(name):
+    """The first SESSION_NAME_MAX bytes of name that are whole UTF-8
+    characters: the daemon's label for the session (its logs).  The report
+    prints the name in full, as `qmc integrate --command` prints the
+    command it sends as "command"."""
+    raw = name.encode("utf-8")[:wire.SESSION_NAME_MAX]
+    return raw.decode("utf-8", errors="ignore")
 
 
 def session_fields(dims, method="auto", *, smoothness="continuous", exact=None, name="",
@@ -105,7 +113,7 @@ def session_fields(dims, method="auto", *, smoothness="continuous", exact=None, 
               "max_memory": j["max_memory"], "max_batch": int(max_batch),
               "tol_abs": j["tol_abs"], "tol_rel": j["tol_rel"],
               "exact": 0.0 if exact is None else float(exact), "sampling": j["sampling"],
-              "name": name or ""}
+              "name": _wire_name(name or "")}
     fields["transport"] = "inline"
     wire.LAYOUTS[wire.SESSION_OPEN].encode(fields)  # refused here, not on the wire
     return fields, SessionRequest(fields, name or "f", method, float(confidence))
@@ -159,6 +167,7 @@ class Session:
         self._v_lo = self._v_hi = 0
         self._refusal = None
         self._refusals = 0
+        self.t0 = time.monotonic()  # the result's seconds count from here
 
     def __repr__(self):
         return "<qmcd.Session %s: %s>" % (self.id, ("opening", "waiting", "batch ready",
@@ -408,12 +417,17 @@ class Session:
 class SessionResult(JobResult):
     """A session's final result: what JobResult holds, with the session's
     id (job_id), the declared exact value as the reference, and the last
-    report."""
+    report.  seconds is the wall time from opening the session to its
+    result, f's evaluations included (what `qmc integrate --command`
+    reports; Client.integrate counts from its call, across reconnections);
+    server_seconds is the daemon's own compute time."""
 
     def __init__(self, msg, request, session):
         JobResult.__init__(self, msg, request)
         self.session_id = msg["job_id"]
         self.report = session.report
+        self.server_seconds = msg["seconds"]
+        self.seconds = time.monotonic() - session.t0
 
 
 class SessionsMixin:
@@ -476,20 +490,24 @@ class SessionsMixin:
         daemon: f takes an (n, dims) float64 array (read-only) and returns
         n values; the daemon's integrator asks for the batches it needs
         and keeps the estimate, its error bar and the flags, as for a job.
-        Returns a SessionResult (json() as `qmc integrate --json`).
+        Returns a SessionResult: json() is the line `qmc integrate
+        --command PROGRAM --json` prints for a PROGRAM computing f, byte
+        for byte but for seconds (wall time, here from this call).
 
         options: method and tol_rel, tol_abs, n, reps, seq, scramble,
         shuffle, split_net, seed, max_evals, max_memory, confidence (as
         submit() and `qmc integrate` take them); smoothness of f
         ("continuous" by default; "analytic" lets auto choose a rule for
-        smooth functions), exact (its integral, when known: tests), name,
-        max_batch.  on_report(report) is called after each batch.  When the
+        smooth functions), exact (its integral, when known: the report
+        then prints the actual error), name (the report's "integrand"; the
+        daemon is told its first 31 bytes), max_batch.  on_report(report) is called after each batch.  When the
         connection drops, the client reconnects and resumes the session,
         at most `retries` times; the values of the batch that was waiting
         are sent again, not recomputed.
         """
         from .errors import ConnectionLost, Timeout
         import numpy as _np
+        t0 = time.monotonic()
         s = self.session(dims, method, **options)
         request = s.request
         ticket = s.ticket
@@ -513,7 +531,9 @@ class SessionsMixin:
                     s.tell(v)
                     if on_report is not None:
                         on_report(s.report)
-                return s.result()
+                r = s.result()
+                r.seconds = time.monotonic() - t0
+                return r
             except (ConnectionLost, Timeout):
                 tries += 1
                 if tries > retries:

@@ -26,11 +26,12 @@ HEADER = struct.Struct("<4sBBHQII")  # magic, version, type, flags, id, len, res
 HEADER_BYTES = HEADER.size  # 24
 
 VERSION_MIN = 1
-VERSION_MAX = 5          # the newest version this package speaks
+VERSION_MAX = 6          # the newest version this package speaks
 VERSION_SHM = 2          # SHM_ATTACH, POINTS_SHM_CHUNK, SHM_RELEASE
 VERSION_AUTH = 3         # AUTH_*; result flag bits 12-16
 VERSION_PIXELS = 4       # PIXELS; scramble fast-owen
 VERSION_SESSIONS = 5     # SESSION_OPEN .. SESSION_CLOSE (section 6.21)
+VERSION_KNOWN_ABS = 6    # JOB_RESULT's known integral of |f| (section 6.10)
 
 # ---- limits (section 8) ----------------------------------------------------
 
@@ -286,6 +287,10 @@ class Layout:
                 d[step[1]] = r.take(len(payload) - r.off)
             elif kind == "sub":
                 d[step[1]] = step[2].decode(r.take(step[2].size), version)
+            elif kind == "since":
+                # Fields a later version appended: absent before it.
+                if version >= step[1]:
+                    d.update(step[2].decode(r.take(step[2].size), version))
             else:  # pragma: no cover - a layout typo
                 raise AssertionError(kind)
         if r.off != len(payload):
@@ -365,6 +370,8 @@ class Layout:
                 out.append(_encode_stats(d[step[1]], self.name))
             elif kind == "sub":
                 out.append(step[2].encode(d[step[1]], version))
+            elif kind == "since" and version >= step[1]:
+                out.append(step[2].encode(d, version))
         return b"".join(out)
 
 
@@ -464,6 +471,22 @@ _INTEGRATE = (
     ("str16", "control", (JOB_NAME_MAX, True)), ("f64s", "a", None), ("f64s", "u", None),
     ("str32", "scene", (SCENE_MAX, True)))
 
+def _check_known_abs(d):
+    v = d["known_abs"]
+    if d["has_known_abs"]:
+        if not (math.isfinite(v) and v >= 0):
+            return "a known integral of |f| of %r" % v
+    elif v != 0 or math.copysign(1.0, v) < 0:
+        return "an unknown integral of |f| with the value %r" % v
+
+
+# Version 6's tail of JOB_RESULT and SESSION_RESULT (section 6.10): the
+# integral of |f| the integrand knows in closed form.  Its fields join the
+# result's dict; at version 5 or older they are absent from it.
+KNOWN_ABS = Layout("known integral of |f|", (
+    ("bool", "has_known_abs", None), ("zero", None, 7), ("f64", "known_abs", None)),
+    _check_known_abs)
+
 _JOB_RESULT = (
     ("u64", "job_id", None), ("code", "method_used", _code(METHODS)),
     ("code", "error_kind", _code(ERROR_KINDS)),
@@ -474,7 +497,8 @@ _JOB_RESULT = (
     ("f64", "ci_high", None), ("f64", "abs_integral", None), ("f64", "cv_beta", None),
     ("f64", "cv_variance_ratio", None), ("f64", "seconds", None),
     ("f64", "reference", None), ("sub", "sampling", SAMPLING), ("str16", "detail", (MAX_MESSAGE, True)),
-    ("str16", "auto_reason", (MAX_MESSAGE, True)))
+    ("str16", "auto_reason", (MAX_MESSAGE, True)),
+    ("since", VERSION_KNOWN_ABS, KNOWN_ABS))
 
 
 def _check_integrate(d):
@@ -652,6 +676,8 @@ def _bounds(layout):
         elif kind == "sub":
             lo += step[2].size
             hi += step[2].size
+        elif kind == "since":
+            hi += step[2].size  # the bounds span every version
     return lo, hi
 
 

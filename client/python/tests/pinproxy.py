@@ -2,7 +2,8 @@
 comparing `qmc integrate --json --connect` with the Python client byte
 for byte: everything in a JOB_RESULT is a deterministic function of the
 request except `seconds` (the daemon's compute time), so the proxy pins
-that field to one value; it also records every INTEGRATE payload, so a
+that field to one value (and, when asked, rewrites the known integral of
+|f|, to show who reads it from the wire); it also records every INTEGRATE payload, so a
 test can check that both clients sent the same request.
 
 Frames are relayed whole and parsed with the package's codec; nothing
@@ -18,6 +19,7 @@ from qmcd import wire
 
 PINNED_SECONDS = 0.125
 _SECONDS_OFFSET = 104  # JOB_RESULT payload: seconds (PROTOCOL.md 6.10)
+_TAIL = 16  # version 6's known integral of |f|, the payload's last bytes
 
 
 def _read_exact(s, n):
@@ -43,7 +45,10 @@ def _frames(s):
 
 
 class PinProxy:
-    def __init__(self, upstream_path, directory):
+    def __init__(self, upstream_path, directory, known_abs=None):
+        """known_abs: a value to put in every JOB_RESULT's known integral
+        of |f| (version 6), to show which clients read it from the wire."""
+        self.known_abs = known_abs
         self.upstream = upstream_path
         self.path = os.path.join(directory, "pin.sock")
         self.endpoint = "unix:" + self.path
@@ -75,6 +80,8 @@ class PinProxy:
                 if not from_client and mtype == wire.JOB_RESULT:
                     p = (p[:_SECONDS_OFFSET] + struct.pack("<d", PINNED_SECONDS) +
                          p[_SECONDS_OFFSET + 8:])
+                    if self.known_abs is not None:
+                        p = p[:-_TAIL] + b"\1" + bytes(7) + struct.pack("<d", self.known_abs)
                 dst.sendall(h + p)
         except OSError:
             pass

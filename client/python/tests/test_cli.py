@@ -5,8 +5,12 @@ over TCP inline, and from a daemon whose max-points cuts requests into
 pieces and whose ring is off; jobs print the JSON `qmc integrate --json
 --connect` prints, through a proxy that pins the one field that is not a
 function of the request (the daemon's compute time) and checks that both
-clients sent the same INTEGRATE bytes.  The daemon's refusals arrive as
+clients sent the same INTEGRATE bytes, and equal what `qmc integrate
+--json` prints in-process; the known integral of |f| comes from the
+daemon (protocol version 6) to both clients, and a version-5 daemon's
+silence on it is met as documented.  The daemon's refusals arrive as
 exceptions with its code and the CLI's own words."""
+import json
 import os
 import unittest
 
@@ -240,6 +244,73 @@ class Jobs(unittest.TestCase):
                                  "the two clients sent different INTEGRATE requests")
                 self.assertEqual(r.seconds, PINNED_SECONDS)
                 self.assertEqual((r.json() + "\n").encode(), want)
+                # In-process (no daemon: libqmc's own integral of |f|, not
+                # the wire's), the same line but for the clock.
+                here = support.qmc("integrate", "--json", *args.split())
+                self.assertEqual(support.pin_seconds(here), support.pin_seconds(want))
+                self.assertTrue(r.known_abs_told)
+
+    def test_the_integral_of_abs_f_comes_from_the_daemon(self):
+        """Both clients print the known integral of |f| the daemon sends
+        (protocol version 6), not one of their own: a proxy puts 0.5 in
+        its place; and a session's f has none, its estimate stands in."""
+        proxy = PinProxy(plain.unix[5:], support.scratch(), known_abs=0.5)
+        self.addCleanup(proxy.close)
+        args = "--integrand genz-oscillatory --dims 3 --method rqmc --n 1024"
+        cli = support.qmc("integrate", "--json", "--connect", proxy.endpoint, *args.split())
+        with qmcd.connect(proxy.endpoint) as c:
+            r = c.run(*kwargs(args, None)[:2], **kwargs(args, None)[2])
+        self.assertEqual((r.json() + "\n").encode(), cli)
+        self.assertEqual(r.known_abs, 0.5)
+        self.assertIn(b'"abs_integral":0.5,', cli)
+        with qmcd.connect(plain.unix) as c:
+            unknown = c.run(*kwargs(args, None)[:2], **kwargs(args, None)[2])
+            known = c.run("genz-gaussian", 3, method="rqmc", n=1024)
+            s = c.integrate(lambda x: x[:, 0], 1, method="gauss-legendre", n=4)
+        self.assertEqual((unknown.known_abs_told, unknown.known_abs), (True, None))
+        self.assertEqual(known.known_abs, known.exact)  # a positive f's
+        self.assertEqual((s.known_abs_told, s.known_abs), (True, None))
+        self.assertIn('"abs_integral":%s,' % ("%.17g" % s.abs_integral), s.json())
+
+    def test_a_version_5_daemon_says_nothing_of_abs_f(self):
+        """Against a daemon of protocol version 5 (a fake one: the frames of
+        that version), the CLI prints the closed form of the integrand it
+        builds itself, the Python client (which builds none) the result's
+        estimate; the rest of the line is the same."""
+        from test_hostile import Fake, read_frame, hello_ok
+        from qmcd import wire
+        args = ["--integrand", "genz-gaussian", "--dims", "2", "--method", "qmc", "--n", "64"]
+        here = json.loads(support.qmc("integrate", "--json", *args))  # libqmc in-process
+        closed = here["abs_integral"]
+        self.assertNotEqual(closed, 0.25)
+
+        def script(f, s):
+            t, rid, _ = read_frame(s)
+            s.sendall(hello_ok(rid, version=5))
+            t, rid, _ = read_frame(s)
+            f.seen.append(t)
+            s.sendall(wire.encode(wire.JOB_ACCEPTED, rid, {"job_id": 9}, 5))
+            s.sendall(wire.encode(wire.JOB_RESULT, rid, dict(
+                job_id=9, method_used="qmc", error_kind="none", reference_kind="exact",
+                cv_used=False, dims=2, flags=0, n=64, evals=64, nonfinite=0, estimate=0.3,
+                error=0.0, ci_low=0.0, ci_high=0.0, abs_integral=0.25, cv_beta=0.0,
+                cv_variance_ratio=0.0, seconds=0.125, reference=here["exact"],
+                sampling=dict(sampler="qmc", seq="sobol", scramble="none", seq_flags=0,
+                              seed=0, n=64, confidence=0.95, reps=1, split_net=False),
+                detail="a fake", auto_reason=""), 5))
+            read_frame(s)  # until the client hangs up
+        f = Fake(script, conns=2)
+        self.addCleanup(f.stop.set)
+        cli = support.qmc("integrate", "--json", "--connect", f.endpoint, *args)
+        with qmcd.connect(f.endpoint) as c:
+            r = c.run("genz-gaussian", 2, method="qmc", n=64)
+        self.assertEqual(f.seen, [wire.INTEGRATE, wire.INTEGRATE])
+        self.assertEqual((r.known_abs_told, r.known_abs), (False, None))
+        cli, py = json.loads(cli), json.loads(r.json())
+        self.assertEqual((cli["abs_integral"], py["abs_integral"]), (closed, 0.25))
+        del cli["abs_integral"], cli["error_vs_abs_integral"]
+        del py["abs_integral"], py["error_vs_abs_integral"]
+        self.assertEqual(cli, py)
 
     def test_result_object(self):
         with qmcd.connect(plain.unix) as c:

@@ -4,22 +4,31 @@ of libqmc (the same IEEE operations in the same order, libm's exp, pow and
 through Python's math), gives `qmc integrate`'s result for that integrand
 bit for bit - the daemon's promise that a session equals INTEGRATE,
 checked from the outside - over the ring and inline, at small batches;
+its report is the line `qmc integrate --command PROGRAM --json` prints
+for a program computing the same function (cmdprog.py), byte for byte
+but for the clock, against the daemon and in-process, for sampling
+methods, auto and rules, a singular and a NaN-valued function among them;
 a dropped connection is resumed with the batch's values sent again, not
 recomputed; a ticket resumes from another client; NaN values are counted
 and flagged; close() ends it; a fake server's broken session frames and
 refusals are met with clear exceptions; a version-4 server is refused
 before anything is sent."""
 import json
-import math
+import os
+import shlex
+import sys
 import unittest
 
 import numpy as np
 
 import support
+from support import pin_seconds
 import qmcd
 from qmcd import wire, errors
 from pinproxy import CutProxy
 from test_hostile import Fake, read_frame, hello_ok, T
+import integrands
+from integrands import gaussian, continuous, corner, discontinuous, poly
 
 
 def setUpModule():
@@ -27,65 +36,9 @@ def setUpModule():
     plain = support.daemon("plain")
 
 
-def exps(s):
-    return np.array([math.exp(v) for v in s])
-
-
 # Each: CLI options naming a built-in integrand, its smoothness, and the
-# same function in numpy (core/genz.c, core/testfn_1d.c, operation for
-# operation).
-def gaussian(a, u):
-    w = [x * x for x in a]
-
-    def f(x):
-        s = np.zeros(len(x))
-        for j in range(x.shape[1]):
-            t = x[:, j] - u[j]
-            s = s + (w[j] * t) * t
-        return exps(-s)
-    return f
-
-
-def continuous(a, u):
-    def f(x):
-        s = np.zeros(len(x))
-        for j in range(x.shape[1]):
-            s = s + a[j] * np.abs(x[:, j] - u[j])
-        return exps(-s)
-    return f
-
-
-def corner(a):
-    def f(x):
-        s = np.ones(len(x))
-        for j in range(x.shape[1]):
-            s = s + a[j] * x[:, j]
-        c0 = -(x.shape[1] + 1.0)
-        return np.array([math.pow(v, c0) for v in s])
-    return f
-
-
-def discontinuous(a, u):
-    def f(x):
-        s = np.zeros(len(x))
-        for j in range(x.shape[1]):
-            s = s + a[j] * x[:, j]
-        out = exps(s)
-        out[(x[:, 0] > u[0]) | (x[:, 1] > u[1])] = 0.0
-        return out
-    return f
-
-
-def poly(c):
-    def f(x):
-        p = np.zeros(len(x))
-        for cj in reversed(c):
-            p = p * x[:, 0] + cj
-        return p
-    return f
-
-
-A3, U3 = [1.5, 2.0, 2.5], [0.5, 0.3, 0.7]
+# same function in numpy.
+A3, U3 = integrands.A3, integrands.U3
 CASES = [
     ("genz-gaussian", 3, "--a 1.5,2,2.5 --u 0.5,0.3,0.7", "analytic", gaussian(A3, U3)),
     ("genz-continuous", 3, "--a 1.5,2,2.5 --u 0.5,0.3,0.7", "continuous",
@@ -163,6 +116,101 @@ class SameAsBuiltIn(unittest.TestCase):
             c.attach_shm(8, 64 << 10)
             self.check(c, name, dims, params, smooth, f, "rqmc --n 4096", max_batch=20000)
             self.check(c, name, dims, params, smooth, f, "mc --n 8192 --seed 3")
+
+
+# The CLI's words for the smoothness a caller declares.
+CLI_SMOOTHNESS = {"analytic": "smooth", "continuous": "kinks", "discontinuous": "jumps",
+                  "singular": "singular"}
+# Each: an integrands.FUNCS name, its smoothness, the method options, and
+# the built-in integrand computing the same function (name and options),
+# whose exact value the caller then declares; None: no built-in twin, and
+# nothing declared.
+SAME_BYTES = [
+    ("gaussian", "analytic", "rqmc --n 4096", ("genz-gaussian", "--a 1.5,2,2.5 --u 0.5,0.3,0.7")),
+    ("gaussian", "continuous", "mc --n 8192 --seed 3", None),
+    ("gaussian", "analytic", "auto --tol-rel 1e-6",
+     ("genz-gaussian", "--a 1.5,2,2.5 --u 0.5,0.3,0.7")),
+    ("gaussian", "continuous", "auto --tol-rel 1e-4", None),  # the twin is declared smooth
+    ("gaussian", "analytic", "cubature --tol-rel 1e-5",
+     ("genz-gaussian", "--a 1.5,2,2.5 --u 0.5,0.3,0.7")),
+    ("discontinuous", "discontinuous", "rqmc --n 2048 --reps 8",
+     ("genz-discontinuous", "--a 1.5,2,2.5 --u 0.5,0.3,0.7")),
+    ("poly", "analytic", "gauss-kronrod", ("poly", "--a 1,-2,3,0.5")),
+    ("poly", "analytic", "clenshaw-curtis --tol-rel 1e-9", None),
+    # Flagged: an integrable singularity (heavy tails), and NaN and
+    # infinite values (counted, left out, flagged).
+    ("inv-sqrt", "singular", "mc --n 100000", ("inv-sqrt", "")),
+    ("inv-sqrt", "singular", "auto --tol-rel 1e-3", ("inv-sqrt", "")),
+    ("nonfinite", "continuous", "mc --n 8192 --seed 1", None),
+]
+# What a built-in job knows that a session cannot: the integral of |f| in
+# closed form (a session's report judges errors against its estimate of
+# it); and the seconds of any run are its own.
+ONLY_BUILT_IN = ("abs_integral", "error_vs_abs_integral")
+
+
+def fields(line):
+    """[(key, value as printed)] of a report line, in order."""
+    return json.loads(line, object_pairs_hook=list, parse_float=str, parse_int=str,
+                      parse_constant=str)
+
+
+class SameBytesAsTheCommandPath(unittest.TestCase):
+    maxDiff = None
+    """client.integrate(f) prints what `qmc integrate --command PROGRAM
+    --json` prints for a PROGRAM computing f (cmdprog.py), byte for byte
+    but for the clock: the CLI on the same daemon, and the CLI in-process
+    (no daemon: an oracle the daemon does not make); and, where f is a
+    built-in integrand, the built-in job's line but for the integral of
+    |f| only the built-in knows in closed form."""
+
+    def test_sessions_print_the_clis_bytes(self):
+        prog = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cmdprog.py")
+        with qmcd.connect(plain.unix) as u, qmcd.connect(plain.tcp) as t:
+            for name, smooth, method, twin in SAME_BYTES:
+                with self.subTest(f=name, method=method):
+                    self.one(u, t, prog, name, smooth, method, twin)
+
+    def one(self, u, t, prog, name, smooth, method, twin):
+        dims, f = integrands.FUNCS[name]
+        exact = None
+        if twin is not None:
+            built = support.qmc("integrate", "--integrand", twin[0], "--dims", dims, "--json",
+                                *(twin[1].split() + ["--method"] + method.split()))
+            exact = json.loads(built)["exact"]
+        cmd = " ".join(shlex.quote(w) for w in (sys.executable, prog, name))
+        args = ["integrate", "--command", cmd, "--command-format", "f64", "--dims", dims,
+                "--smoothness", CLI_SMOOTHNESS[smooth], "--json", "--method"] + method.split()
+        if exact is not None:
+            args += ["--exact", repr(exact)]
+        remote = support.qmc(*args, "--connect", plain.unix)
+        local = support.qmc(*args)
+        self.assertEqual(pin_seconds(remote), pin_seconds(local))
+        for c in (u, t):
+            r = c.integrate(f, dims, smoothness=smooth, name=cmd, exact=exact,
+                            **options(method))
+            line = (r.json() + "\n").encode()
+            self.assertEqual(pin_seconds(line), pin_seconds(remote), c.endpoint)
+            # seconds is the caller's wall time, the daemon's compute in it.
+            self.assertGreaterEqual(r.seconds, r.server_seconds)
+        got = fields(line)
+        if name == "inv-sqrt" and method.startswith("mc"):
+            self.assertIn("heavy_tail", r.flags)
+        if name == "nonfinite":
+            self.assertGreater(r.nonfinite, 0)
+            self.assertEqual(r.flags[:1], ("nonfinite",))
+        if twin is None:
+            return
+        # The built-in job's line: the same keys in the same order, the
+        # same bytes but for the closed form of the integral of |f|.
+        r = u.integrate(f, dims, smoothness=smooth, name=twin[0], exact=exact,
+                        **options(method))
+        got = fields(r.json())
+        want = fields(built)
+        self.assertEqual([k for k, _ in got], [k for k, _ in want])
+        skip = ONLY_BUILT_IN + ("seconds",)
+        self.assertEqual([kv for kv in got if kv[0] not in skip],
+                         [kv for kv in want if kv[0] not in skip])
 
 
 class Lifecycle(unittest.TestCase):
@@ -282,9 +330,10 @@ def session_server(batches, refuse_first=False):
                     has_estimate=True, error_kind="none", flags=0, err=0, dims=2, res_n=1,
                     res_evals=1, res_nonfinite=0, estimate=0.5, error=0.0, ci_low=0.5,
                     ci_high=0.5, abs_integral=0.5)))
+                # Version 5's layout, as negotiated: no known integral of |f|.
                 res = wire.decode_payload(wire.JOB_RESULT, wire.encode(
-                    wire.JOB_RESULT, rid, RESULT)[24:])
-                s.sendall(wire.encode(wire.SESSION_RESULT, rid, dict(res, job_id=9)))
+                    wire.JOB_RESULT, rid, RESULT, 5)[24:], 5)
+                s.sendall(wire.encode(wire.SESSION_RESULT, rid, dict(res, job_id=9), 5))
     return script
 
 

@@ -221,6 +221,7 @@ class Damage(unittest.TestCase):
 
     def test_result_flags_by_version(self):
         _, _, p = split(vectors()["job_result"])
+        p = p[:-16]  # the frame of versions before 6: no known integral of |f|
         with_bit_12 = p[:16] + struct.pack("<I", 1 << 12) + p[20:]
         self.assertEqual(wire.decode_payload(wire.JOB_RESULT, with_bit_12, 3)["flags"], 1 << 12)
         with self.assertRaisesRegex(ProtocolError, "undefined in version 2"):
@@ -228,6 +229,43 @@ class Damage(unittest.TestCase):
         with_bit_17 = p[:16] + struct.pack("<I", 1 << 17) + p[20:]
         with self.assertRaisesRegex(ProtocolError, "undefined in version 4"):
             wire.decode_payload(wire.JOB_RESULT, with_bit_17, 4)
+
+    def test_known_abs_by_version(self):
+        """Version 6 appends the known integral of |f| to JOB_RESULT and
+        SESSION_RESULT (section 6.10); a version-5 peer gets the frame it
+        always got (tests/vectors/proto/v5, the vectors from before)."""
+        d = support.tree_file("tests", "vectors", "proto", "v5")
+        for name, mtype, has, value in (("job_result", wire.JOB_RESULT, True, 0.3126145),
+                                        ("session_result", wire.SESSION_RESULT, False, 0.0)):
+            with open(os.path.join(d, name + ".hex")) as f:
+                old = bytes.fromhex(f.read())
+            frame = vectors()[name]
+            _, rid, p = split(frame)
+            r = wire.decode_payload(mtype, p)
+            self.assertEqual((r["has_known_abs"], r["known_abs"]), (has, value))
+            self.assertEqual(p[-16:], bytes([has]) + bytes(7) + struct.pack("<d", value))
+            self.assertEqual(wire.encode(mtype, rid, r, 5), old)
+            r5 = wire.decode_payload(mtype, split(old)[2], 5)
+            self.assertNotIn("has_known_abs", r5)
+            self.assertEqual(wire.encode(mtype, rid, r5, 5), old)
+            with self.assertRaisesRegex(ProtocolError, "16 bytes left over"):
+                wire.decode_payload(mtype, p, 5)
+            with self.assertRaisesRegex(ProtocolError, "16 bytes short"):
+                wire.decode_payload(mtype, split(old)[2], 6)
+        _, _, p = split(vectors()["job_result"])
+        head = p[:-16]
+        for tail, why in ((bytes([2]) + bytes(15), "has_known_abs is 2"),
+                          (bytes([1, 0, 1]) + bytes(13), "reserved"),
+                          (b"\1" + bytes(7) + struct.pack("<d", math.nan), "known integral"),
+                          (b"\1" + bytes(7) + struct.pack("<d", -1.0), "known integral"),
+                          (b"\0" + bytes(7) + struct.pack("<d", 0.5), "unknown integral"),
+                          (b"\0" + bytes(7) + struct.pack("<d", -0.0), "unknown integral")):
+            with self.subTest(why), self.assertRaisesRegex(ProtocolError, why):
+                wire.decode_payload(wire.JOB_RESULT, head + tail)
+        r = wire.decode_payload(wire.JOB_RESULT, p)
+        for change in ({"known_abs": math.inf}, {"has_known_abs": False}):
+            with self.subTest(change), self.assertRaises(ValueError):
+                wire.encode(wire.JOB_RESULT, 4, dict(r, **change))
 
     def test_encoder_refuses_what_the_decoder_would(self):
         base = {"kind": "sobol", "scramble": "none", "format": "f64", "transport": "inline",
