@@ -526,6 +526,13 @@ void qmcd_conns_tick(qmcd_server *srv, int64_t now)
                            (unsigned long long)cfg->handshake_timeout_ms);
             continue;
         }
+        /* frame-timeout-ms is the peer's deadline for a frame it has
+         * begun.  While its answers back up we read nothing more of it
+         * (the rest of the frame may be waiting in the socket): the peer
+         * is not the one late, and write-timeout-ms judges its reading.
+         * Its frame's clock waits until we read again. */
+        if (c->partial_ms && qmcd_conn_out_room(c) < QMCD_OUT_RESERVE)
+            c->partial_ms = now;
         if (c->partial_ms && now - c->partial_ms >= (int64_t)cfg->frame_timeout_ms) {
             srv->stats.conns_timed_out++;
             qmcd_conn_fail(c, 0, -ETIMEDOUT,

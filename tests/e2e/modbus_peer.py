@@ -361,6 +361,7 @@ def main():
         # (whenever it comes: the assertion is the close, not its time).
         s = connect(host, port)
         s.sendall(adu(1, 1, struct.pack(">BHH", 4, 0, 1))[:5])
+        s.settimeout(60)  # well past the deadline: this only bounds a hang
         try:
             got = s.recv(100)
         except ConnectionResetError:

@@ -763,6 +763,49 @@ def sc_disconnect(addr):
     b.close()
 
 
+def sc_laggard(addr):
+    """A client that pipelines more PINGs than its answers' buffers hold,
+    then reads nothing for a while: the daemon stops reading it (its
+    answers back up), so the rest of a frame may wait in the socket - the
+    peer is not late with it, and frame-timeout-ms must not cut it
+    (write-timeout-ms, 60 s by default, judges a reader).  Run where
+    frame-timeout-ms is short (1 s): the 3 s pause is three of them.  A
+    slow machine can only make the pause look shorter to the daemon, never
+    fail a daemon that waits."""
+    p = Peer(addr)
+    n, data = 40000, b"x" * 256  # 11 MB of answers: more than 4 MB of out-buffer-bytes
+    first = p.next_id + 1
+    blob = b"".join(p.ping_frame(first + i, data) for i in range(n))
+    p.next_id += n
+
+    def send():
+        try:
+            p.send(blob)
+        except OSError:  # cut off: the check below says so
+            pass
+
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
+    sender.join(3.0)
+    held = sender.is_alive()  # the daemon stopped reading: our send blocks
+    time.sleep(3.0)
+    got, other = 0, None
+    try:
+        for _ in range(n):
+            f = p.recv()
+            if f is None or f[0] != "PONG":
+                other = f and (f[0], f[2])
+                break
+            got += 1
+    except (ConnectionResetError, socket.timeout, ValueError) as e:
+        other = repr(e)
+    sender.join(30)
+    check("a pipelining client that stops reading for 3 s: the daemon stops reading it (%s) "
+          "and still answers all %d PINGs (%d), no frame-timeout-ms" % (held, n, got),
+          held and got == n, repr(other))
+    p.close()
+
+
 def vmrss_kb(pid):
     with open("/proc/%d/status" % pid) as f:
         for line in f:
@@ -912,7 +955,15 @@ def sc_jobs_for_sigterm(addr, marker):
           all(e["code"] in (ESHUTDOWN, ECANCELED) for e in errors[:3]), repr(errors))
 
 
-def sc_reload(addr, config, pid):
+def log_count(log, text):
+    with open(log, errors="replace") as f:
+        return f.read().count(text)
+
+
+def sc_reload(addr, config, pid, log):
+    """SIGHUP reloads; each wait is for the daemon's state (STATS
+    config_reloads, the rejection in its log `log`), bounded by a deadline
+    that only stops a hang."""
     pid = int(pid)
     p = Peer(addr)
     before = p.stats().get("config_reloads", 0)
@@ -926,28 +977,34 @@ def sc_reload(addr, config, pid):
     with open(config, "w") as f:
         f.write(text + "\nmax-points = 500\n")
     os.kill(pid, signal.SIGHUP)
-    err = None
-    for _ in range(100):  # bounded polling, same connection
-        try:
-            p.points(dims=1, count=1000)
-        except PeerError as e:
-            err = e
-            break
+    end = time.monotonic() + 60
+    while p.stats().get("config_reloads", 0) == before and time.monotonic() < end:
         time.sleep(0.02)
+    err = None
+    try:
+        p.points(dims=1, count=1000)
+    except PeerError as e:
+        err = e
     check("SIGHUP reload: new max-points enforced without reconnecting",
           err is not None and err.code == QMC_ETOOBIG and "max-points" in err.message,
           repr(err))
     check("SIGHUP reload counted", p.stats().get("config_reloads", 0) == before + 1)
     with open(config, "w") as f:
         f.write(text + "\nmax-points = 500\nno-such-key = 1\n")
+    rejected = log_count(log, "reload rejected")
     os.kill(pid, signal.SIGHUP)
-    time.sleep(0.3)
+    end = time.monotonic() + 60
+    while log_count(log, "reload rejected") == rejected and time.monotonic() < end:
+        time.sleep(0.02)
+    check("bad config on SIGHUP: the daemon logs the rejection",
+          log_count(log, "reload rejected") == rejected + 1)
     try:
         p.points(dims=1, count=1000)
         kept = False
     except PeerError as e:
         kept = "max-points" in e.message
-    check("bad config on SIGHUP rejected, old one kept", kept and p.ping())
+    check("bad config on SIGHUP rejected, old one kept", kept and p.ping() and
+          p.stats().get("config_reloads", 0) == before + 1)
     with open(config, "w") as f:
         f.write(text)
     os.kill(pid, signal.SIGHUP)
@@ -1074,6 +1131,16 @@ def shm_peer(addr, slots=4, slot_bytes=64 << 10, timeout=15.0):
     return p
 
 
+def settle(cond, seconds=30.0):
+    """Polls cond() until it holds or `seconds` pass: the wait for a state
+    the daemon reaches on its own (closing its side of a connection we
+    closed); the deadline only bounds a hang.  Returns cond()'s last value."""
+    end = time.monotonic() + seconds
+    while not cond() and time.monotonic() < end:
+        time.sleep(0.01)
+    return cond()
+
+
 def fd_count(pid):
     return len(os.listdir("/proc/%d/fd" % pid))
 
@@ -1178,7 +1245,9 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
     for f in (fd, fd2):
         os.close(f)
     x.close()
-    time.sleep(0.2)
+    # The daemon closes its side of those connections when it sees our
+    # close: wait for that state (a deadline bounds only a hang).
+    settle(lambda: fd_count(pid) <= before and ring_maps(pid) == 0)
     after = fd_count(pid)
     check("descriptors passed with the wrong frame are closed (daemon fds %d -> %d)"
           % (before, after), after <= before)
@@ -1205,7 +1274,7 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
 
     # 5. A client that never releases stalls only its ring streams.
     base = vmrss_kb(pid)
-    stuck = shm_peer(addr, slots=4, slot_bytes=64 << 10, timeout=2.0)
+    stuck = shm_peer(addr, slots=4, slot_bytes=64 << 10)
     got = stuck.points_shm(kind="sobol", dims=16, count=1 << 24, release=False,
                            max_chunks=4)[2]
     stuck.s.settimeout(0.5)
@@ -1215,7 +1284,7 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
         more = None
     check("a client that never releases gets one ring's worth (%d chunks), then nothing"
           % got, got == 4 and more is None, repr(more))
-    stuck.s.settimeout(5.0)
+    stuck.s.settimeout(15.0)
     check("its other requests are still answered", stuck.ping())
     # Meanwhile another ring client streams (the daemon's memory stays
     # flat: nothing piles up for the stalled one), and an inline one too.
@@ -1250,7 +1319,7 @@ def sc_shm(addr, tcp_addr, pid, limit_mb):
     check("TCP connection usable", t.ping())
     t.close()
     other.close()
-    time.sleep(0.2)
+    settle(lambda: fd_count(pid) <= fds0 and ring_maps(pid) == 0)
     check("no descriptor left behind (daemon fds %d -> %d), no ring mapped"
           % (fds0, fd_count(pid)), fd_count(pid) <= fds0 and ring_maps(pid) == 0)
 
@@ -1265,7 +1334,8 @@ def sc_shm_limits(addr, limit):
     refused(p, fd, n, slot, "over max-shm-bytes", QMC_ETOOBIG, "max-shm-bytes")
     os.close(fd)
     p.close()
-    stuck = shm_peer(addr, slots=2, slot_bytes=64 << 10, timeout=10.0)
+    # 60 s: only a hang guard; the daemon closes it after write-timeout-ms (1 s)
+    stuck = shm_peer(addr, slots=2, slot_bytes=64 << 10, timeout=60.0)
     stuck.points_shm(kind="sobol", dims=16, count=1 << 20, release=False, max_chunks=2)
     t0 = time.time()
     errs = expect_closed(stuck, "ring stall")
@@ -1280,6 +1350,7 @@ SCENARIOS = dict(hello=sc_hello, points=sc_points, points_error=sc_points_error,
                  timeout=sc_timeout, sigterm_jobs=sc_jobs_for_sigterm, reload=sc_reload,
                  malformed=sc_malformed, partial=sc_partial, maxconn=sc_maxconn,
                  stats=sc_stats, ping=sc_ping, shm=sc_shm, shm_limits=sc_shm_limits,
+                 laggard=sc_laggard,
                  flags_compat=sc_flags_compat)
 
 

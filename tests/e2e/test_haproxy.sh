@@ -57,13 +57,18 @@ PE=$(cat "$tmp/echo.port")
 
 # ---- HAProxy with the shipped file --------------------------------------------
 # A free port for the frontend: the kernel picks one and we release it (a
-# retry covers the rare case of someone taking it in between).
+# retry covers the rare case of someone taking it in between).  Checks run
+# every 100 ms and one failure marks a replica DOWN, so that the kill is
+# seen at once; without `timeout check` HAProxy would also give the whole
+# check (HELLO, PING) only `inter`, 100 ms, which a sanitized replica on a
+# loaded machine can take, marking a live replica DOWN.  A dead one still
+# fails at once: its connect is refused.
 start_haproxy() {
     FP=$("$PY" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
     sed -e "s|^\( *\)bind .*|\1bind 127.0.0.1:$FP|" \
         -e '/^ *server /d' \
         -e "s|^\( *\)log /dev/log.*|\1log stdout format raw local0\n\1stats socket $tmp/admin.sock mode 600 level admin|" \
-        -e 's|^\( *\)default-server .*|\1default-server inter 100ms fastinter 100ms downinter 100ms fall 1 rise 1|' \
+        -e 's|^\( *\)default-server .*|\1default-server inter 100ms fastinter 100ms downinter 100ms fall 1 rise 1\n\1timeout check 10s|' \
         "$CFG" > "$tmp/haproxy.cfg"
     for r in 1 2 3; do
         eval "echo \"    server qmcd$r 127.0.0.1:\$P$r check\"" >> "$tmp/haproxy.cfg"
@@ -181,19 +186,24 @@ i=0
 while [ ! -e "$tmp/kill.now" ] && [ $i -lt 400 ]; do sleep 0.05; i=$((i + 1)); done
 kill -9 "$VPID"
 wait "$VPID" 2>/dev/null
+# Waited for: its PID may be reused, and cleanup must not SIGKILL a stranger.
+forget "$VPID"
 touch "$tmp/killed"
 wait "$RUN"
 n_ok=$(grep -c ' ok$' "$tmp/run.log")
 if [ "$n_ok" -eq 40 ]; then ok
 else bad "with qmcd$victim killed mid-run only $n_ok of 40 clients were served: $(cat "$tmp"/run*.err | sort -u | head -n 3)"; fi
-if wait "$LONG"; then
+wait "$LONG"
+long_rc=$?
+forget "$LONG"
+if [ $long_rc -eq 0 ]; then
     bad "the long job's client exited 0 though its replica was killed"
 elif [ "$(wc -l < "$tmp/long.err")" -eq 1 ] && [ ! -s "$tmp/long.out" ]; then ok
 else bad "the cut job's client: stdout $(wc -c < "$tmp/long.out") bytes, stderr: $(cat "$tmp/long.err")"; fi
 if wait_status "qmcd$victim" DOWN; then ok; else bad "the killed replica is still $(status "qmcd$victim")"; fi
 for r in 1 2 3; do
     [ "$r" = "$victim" ] && continue
-    if [ "$(status qmcd$r)" = UP ]; then ok; else bad "qmcd$r is $(status qmcd$r) after qmcd$victim died"; fi
+    if wait_status "qmcd$r" UP; then ok; else bad "qmcd$r is $(status qmcd$r) after qmcd$victim died"; fi
 done
 # and a job now is served too, with the same numbers
 if "$QMC" integrate --integrand genz-oscillatory --dims 4 --method rqmc --n 2048 --reps 8 --seed 3 \
@@ -203,9 +213,11 @@ echo "long job's client after its replica died: $(cat "$tmp/long.err")"
 
 kill -TERM "$HA"
 wait "$HA" 2>/dev/null
+forget "$HA"
 for r in 1 2 3; do
     [ "$r" = "$victim" ] && continue
     eval "kill -TERM \$R$r; wait \$R$r" || bad "qmcd$r: SIGTERM did not exit 0"
+    eval "forget \$R$r"
 done
 if grep -l -E "AddressSanitizer|LeakSanitizer|runtime error" "$tmp"/r*.log; then
     bad "sanitizer report in a replica log"

@@ -79,7 +79,10 @@ run_peer "$DEVICE" memory 127.0.0.1 "$port" "$tmp/b.sock" "$one"
 stop
 
 # ---- 3. idle banks go with their sessions ---------------------------------------
-start_modbus c --idle-timeout-ms 500
+# The device must still hold its session when it asks STATS (a Unix
+# round trip after its last Modbus request): 500 ms of idleness, which a
+# loaded machine can spend there, closed it first; 5 s cannot be.
+start_modbus c --idle-timeout-ms 5000
 run_peer "$DEVICE" hold 127.0.0.1 "$port" "$tmp/c.sock"
 # Order, not time: poll until the idle rule has run (bounded at 30 s).
 i=0

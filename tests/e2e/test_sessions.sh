@@ -193,13 +193,17 @@ run_peer "$HERE/sessionpeer.py" stats "$U"
 same "a job after all the sessions" "$tmp/a.json" "$tmp/b.json"
 stop "$D" "$tmp/main.log"
 
-# ---- 6. expiry and caps, on a daemon with small limits --------------------------------
-serve small --threads 1 --listen "unix:$tmp/small.sock" --session-idle-timeout-ms 300 \
-    --max-sessions-per-peer 3
+# ---- 6. expiry and caps, on daemons with small limits ---------------------------------
+# Each on its own daemon: caps parks a session and needs it still counted
+# when its next SESSION_OPEN arrives, which a 300 ms idle timeout would
+# race on a slow machine (the parked session gone, the open accepted).
+serve small --threads 1 --listen "unix:$tmp/small.sock" --session-idle-timeout-ms 300
 run_peer "$HERE/sessionpeer.py" expire "unix:$tmp/small.sock"
-run_peer "$HERE/sessionpeer.py" caps "unix:$tmp/small.sock" 3
 grep -q 'session [0-9]* expired: parked for' "$tmp/small.log" && ok ||
     bad "no expiry logged: $(tail -n 5 "$tmp/small.log")"
 stop "$pid" "$tmp/small.log"
+serve caps --threads 1 --listen "unix:$tmp/caps.sock" --max-sessions-per-peer 3
+run_peer "$HERE/sessionpeer.py" caps "unix:$tmp/caps.sock" 3
+stop "$pid" "$tmp/caps.log"
 
 finish

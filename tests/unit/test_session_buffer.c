@@ -288,8 +288,7 @@ static void test_ahead_behind_then(void **state)
         assert_int_equal(qmc_session_ask(s, &again), 0);
         assert_true(again.seq == 1 && again.count == next.count);
         assert_memory_equal(again.points, copy, next.count * DIMS * sizeof *copy);
-        outcome got;
-        session_test_drive(s, p.f, &got);
+        outcome got = session_test_drive(s, p.f);
         session_test_assert_same(&got, &want, how ? "after own_batch behind" : "after refusal");
         qmc_session_free(s);
     }
