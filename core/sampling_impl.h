@@ -82,7 +82,8 @@ double qmc__variance_rse(const qmc_sampling_sums *sums, uint64_t count);
 /* The evidence flags of a finished sampling result (sampling_finish.c):
  * heavy_tail from the pooled top values of `finite` finite points (for an
  * integrand that declares no singularity, only while variance_rse, from
- * qmc__variance_rse, is above QMC__RSE_BOUNDED or NAN), and the "cannot
+ * qmc__variance_rse, is above QMC__RSE_BOUNDED or NAN - NAN for a
+ * replicated bar - or the top values follow a power law), and the "cannot
  * tell" flags - few_nonzero, tail_untested, zero_spread and an infinite
  * bar - which mark a bar resting on evidence that cannot see the failure;
  * has_bar is 0 for plain qmc, which claims no bar; singular is whether
