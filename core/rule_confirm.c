@@ -42,30 +42,6 @@ static int gk_confirms(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_
     return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack;
 }
 
-static int is_tensor(qmc_method m, qmc_rule1d *rule)
-{
-    switch (m) {
-    case QMC_METHOD_MIDPOINT: *rule = QMC_RULE1D_MIDPOINT; return 1;
-    case QMC_METHOD_TRAPEZOID: *rule = QMC_RULE1D_TRAPEZOID; return 1;
-    case QMC_METHOD_SIMPSON: *rule = QMC_RULE1D_SIMPSON; return 1;
-    case QMC_METHOD_GAUSS_LEGENDRE: *rule = QMC_RULE1D_GAUSS_LEGENDRE; return 1;
-    default: return 0;
-    }
-}
-
-/* Whether qmc_quad_tensor ran its coarse level, both siblings and the
- * probe: it runs them only within the budget, and the result does not
- * say, but its evaluations do (n^d fine, at least 1 coarse, and the
- * check's own). */
-static int tensor_checked(const qmc_integrate_spec *s, qmc_rule1d rule, const qmc_integrand *f,
-                          const qmc_result *res)
-{
-    uint32_t n = s->n_axis ? s->n_axis : (rule == QMC_RULE1D_SIMPSON ? 17 : 16);
-    uint64_t check = qmc_quad_tensor_check_evals(rule, n, f->dims);
-    return check != UINT64_MAX && res->n <= UINT64_MAX - check - 1 &&
-           res->evals >= res->n + check + 1;
-}
-
 uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integrand *f,
                                     qmc_result *res)
 {
@@ -75,13 +51,8 @@ uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integ
     if (f->smoothness >= QMC_SMOOTH_SINGULAR || (res->flags & QMC_FLAG_ERROR_UNRELIABLE) ||
         !isfinite(res->estimate) || !isfinite(res->error))
         return doubt; /* flagged already, or nothing to confirm */
-    if (qmc__gk_breaks_usable(f)) {
-        uint64_t left = s->max_evals > res->evals ? s->max_evals - res->evals : 0;
-        return gk_confirms(s, f, res, left) ? 0 : doubt;
-    }
-    qmc_rule1d rule;
-    if (f->smoothness == QMC_SMOOTH_CONTINUOUS && is_tensor(s->method, &rule) &&
-        tensor_checked(s, rule, f, res))
-        return 0;
-    return doubt;
+    if (!qmc__gk_breaks_usable(f))
+        return doubt;
+    uint64_t left = s->max_evals > res->evals ? s->max_evals - res->evals : 0;
+    return gk_confirms(s, f, res, left) ? 0 : doubt;
 }

@@ -7,8 +7,8 @@
  * across a jump two levels can agree while both are wrong, and across a
  * kink they often do.  Every rule's bar on such an integrand used to carry
  * error_unreliable, right or wrong: on `qmc stability` that was a third of
- * the flags on correct answers.  The flag now stays unless one of these
- * confirms the bar:
+ * the flags on correct answers.  The flag now stays unless this confirms
+ * the bar:
  *  - 1D, breaks declared (qmc_integrand.breaks): Gauss-Kronrod started from
  *    the breaks, so that each piece is smooth and its bar QUADPACK's own,
  *    run to a quarter of the rule's bar within QMC_INTEGRATE_CONFIRM_EVALS and
@@ -16,17 +16,16 @@
  *    most twice the rule's bar (plus 32 ulps of the integral of |f|), so
  *    the truth lies within 3 bars whenever GK's bar holds.  Its
  *    evaluations are added to the result's.
- *  - a tensor rule (midpoint, trapezoid, Simpson, Gauss-Legendre) on an
- *    integrand with kinks only (continuous), whose sibling check ran in
- *    full and left it resolved: the siblings' nodes share none of the
- *    levels', so a kink lands at another phase in each and their scatter
- *    (the bar's floor) measures what the kink does to the rule.  Jumps are
- *    not confirmed this way: a jump next to an end point, or a narrow
- *    spike of a scene's MIS weight, can sit beyond every level's and every
- *    sibling's nodes (jump-step-end-1d, tiny-light/mis-balance in `qmc
- *    stability`: wrong under bars of 1e-17 that only this flag marked).
- * A declared singularity is never confirmed.  Gauss-Kronrod is judged by
- * its own floors (integrate.c), not here.
+ * Nothing else confirms.  Not a tensor rule's siblings: on kinks they
+ * agree with the estimate by phase as the levels do (genz-continuous, d =
+ * 2-3, 4000 random runs of the four tensor rules at 16-65 nodes an axis:
+ * 7 wrong by 3.5 to 22 bars with the siblings agreeing), and a jump next
+ * to an end point or a narrow spike of a scene's MIS weight sits beyond
+ * every level's and every sibling's nodes (jump-step-end-1d,
+ * tiny-light/mis-balance in `qmc stability`: wrong under bars of 1e-17
+ * that only this flag marked).  A declared singularity is never
+ * confirmed.  Gauss-Kronrod is judged by its own floors (integrate.c),
+ * not here.
  * Must not: change the estimate or the bar.
  */
 #ifndef QMC_RULE_CONFIRM_H
