@@ -74,13 +74,35 @@ int qmc__sampling_run_blocks(const qmc_sampling_job *job, qmc_block_runner runne
 /* Keeps the QMC_SAMPLING_TOP largest of a's and b's top values in a. */
 void qmc__top_merge(double *a, const double *b);
 
+/*
+ * The relative standard error of the pooled within-block variance of f,
+ * from how much the blocks' own variances v_b (m2_f / points) disagree:
+ * for independent points Var(v_b) = (mu4 - sigma^4) / m_b to first order,
+ * so kurt - 1 = sum m_b (v_b - v)^2 / (B v^2), and the pooled variance's
+ * relative standard error is sqrt((kurt - 1) / N).  For a spike hit H
+ * times in all, kurt ~ N / H and the result ~ 1 / sqrt(H): it counts the
+ * values that carry the variance.  NAN when fewer than
+ * QMC__RSE_MIN_BLOCKS blocks hold two finite points or the variance is 0
+ * or not finite.  Blocks of a net (stratified, lhs, a scrambled net's
+ * replicate) are less random than independent points, so their variances
+ * agree better and the result is smaller: it is used only to clear a
+ * bounded integrand of Hill's flag, where the net's estimate is as much
+ * better.
+ */
+#define QMC__RSE_MIN_BLOCKS 16u
+#define QMC__RSE_BOUNDED 0.25
+double qmc__variance_rse(const qmc_sampling_sums *sums, uint64_t count);
+
 /* The evidence flags of a finished sampling result (sampling_finish.c):
- * heavy_tail from the pooled top values of `finite` finite points, and
- * the "cannot tell" flags - few_nonzero, tail_untested, zero_spread and an
- * infinite bar - which mark a bar resting on evidence that cannot see the
- * failure; has_bar is 0 for plain qmc, which claims no bar; singular is
- * whether the integrand declares a singularity (the stronger tail test). */
+ * heavy_tail from the pooled top values of `finite` finite points (for an
+ * integrand that declares no singularity, only while variance_rse, from
+ * qmc__variance_rse, is above QMC__RSE_BOUNDED or NAN - NAN for a
+ * replicated bar - or the top values follow a power law), and the "cannot
+ * tell" flags - few_nonzero, tail_untested, zero_spread and an infinite
+ * bar - which mark a bar resting on evidence that cannot see the failure;
+ * has_bar is 0 for plain qmc, which claims no bar; singular is whether
+ * the integrand declares a singularity (the stronger tail test). */
 void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite, int has_bar,
-                            int singular);
+                            int singular, double variance_rse);
 
 #endif

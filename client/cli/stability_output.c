@@ -291,7 +291,9 @@ void cli_stab_print_json(FILE *f, const cli_stab_matrix *mx)
                 fprintf(f, "%s\"%s\"", first ? "" : ",", qmc_flag_key(1u << b));
                 first = 0;
             }
-        fputs("]}", f);
+        fprintf(f, "],\"tiny\":%s,\"flag_runs\":", cell->c->tiny ? "true" : "false");
+        json_flags(f, &cell->flags);
+        fputs("}", f);
     }
     fputs("]}\n", f);
 }

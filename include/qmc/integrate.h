@@ -48,6 +48,13 @@ typedef enum qmc_method {
  * continuous ones) when the budget buys 50 regions; RQMC otherwise. */
 #define QMC_AUTO_CUBATURE_MAX_DIMS 10u
 
+/* A deterministic rule's bar on a 1D integrand that declares where its
+ * kinks and jumps are (qmc_integrand.breaks) is confirmed by Gauss-Kronrod
+ * from those breaks, in at most this many evaluations of the budget the
+ * rule leaves; unconfirmed, it carries QMC_FLAG_ERROR_UNRELIABLE
+ * (docs/FLAGS.md).  A caller that fits a 1D rule to a budget leaves room. */
+#define QMC_INTEGRATE_CONFIRM_EVALS 2048u
+
 typedef struct qmc_integrate_spec {
     qmc_method method;
     qmc_sampling_spec sampling;  /* sampling methods (n, reps, seq, ...) */

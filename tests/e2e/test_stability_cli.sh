@@ -99,6 +99,15 @@ for budget in ("normal_budget", "tiny_budget"):
         assert 0 <= on_ok <= fp["correct"] and 0 <= on_bad <= fp["wrong"], (key, fp)
 assert d["flag_precision"]["normal_budget"]["correct"] + \
     d["flag_precision"]["normal_budget"]["wrong"] > 0
+# each cell's own flag counts add up to the matrix's
+for budget, tiny in (("normal_budget", False), ("tiny_budget", True)):
+    fp = d["flag_precision"][budget]
+    cells = [c["flag_runs"] for c in d["cells"] if c["tiny"] == tiny]
+    assert sum(c["correct"] for c in cells) == fp["correct"], budget
+    assert sum(c["wrong"] for c in cells) == fp["wrong"], budget
+    for key, (on_ok, on_bad) in fp["flags"].items():
+        assert sum(c["flags"].get(key, [0, 0])[0] for c in cells) == on_ok, key
+        assert sum(c["flags"].get(key, [0, 0])[1] for c in cells) == on_bad, key
 PYEOF
 grep -q '^## What each flag is worth' "$tmp/st/REPORT.md" && ok ||
     bad "REPORT.md lacks the per-flag section"

@@ -1,0 +1,58 @@
+/*
+ * rule_confirm.c - a rule's bar on a declared kink or jump, confirmed by
+ * evidence that is not the rule's (see rule_confirm.h for the rules and
+ * for what it must not do).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+
+#include "quad_impl.h"
+#include "rule_confirm.h"
+#include "qmc/quad.h"
+
+/* Gauss-Kronrod from the declared breaks, within `left` evaluations. */
+static int gk_confirms(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,
+                       uint64_t left)
+{
+    qmc_quad_gk_opts g;
+    qmc_quad_gk_opts_init(&g);
+    const double scale = fmax(fabs(res->estimate), res->abs_integral);
+    const double slack = 32.0 * DBL_EPSILON * scale;
+    g.tol_abs = fmax(0.25 * res->error, slack);
+    g.tol_rel = 0.0;
+    if (!(g.tol_abs > 0.0))
+        g.tol_abs = DBL_MIN;
+    g.max_evals = left < QMC_INTEGRATE_CONFIRM_EVALS ? left : QMC_INTEGRATE_CONFIRM_EVALS;
+    g.interrupt = s->interrupt;
+    size_t bytes = qmc_quad_gk_workspace_bytes(g.max_subdiv);
+    void *ws = malloc(bytes);
+    if (!ws)
+        return 0;
+    qmc_result r;
+    int err = qmc_quad_gk(f, &g, ws, bytes, &r);
+    free(ws);
+    if (err)
+        return 0; /* over budget, cancelled: nothing confirmed */
+    res->evals += r.evals;
+    const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE | QMC_FLAG_NONFINITE | QMC_FLAG_ROUNDOFF |
+                           QMC_FLAG_MAX_SUBDIV | QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
+    if ((r.flags & doubt) || !isfinite(r.estimate) || !isfinite(r.error))
+        return 0;
+    return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack;
+}
+
+uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integrand *f,
+                                    qmc_result *res)
+{
+    if (f->smoothness < QMC_SMOOTH_CONTINUOUS || s->method == QMC_METHOD_GAUSS_KRONROD)
+        return 0;
+    const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE;
+    if (f->smoothness >= QMC_SMOOTH_SINGULAR || (res->flags & QMC_FLAG_ERROR_UNRELIABLE) ||
+        !isfinite(res->estimate) || !isfinite(res->error))
+        return doubt; /* flagged already, or nothing to confirm */
+    if (!qmc__gk_breaks_usable(f))
+        return doubt;
+    uint64_t left = s->max_evals > res->evals ? s->max_evals - res->evals : 0;
+    return gk_confirms(s, f, res, left) ? 0 : doubt;
+}
