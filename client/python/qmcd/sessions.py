@@ -220,6 +220,18 @@ class Session:
                 self._unpin()
                 self._got = 0
                 self.state = _WAITING
+                # And go back now, once they are half the ring (as
+                # libqmcclient does, PROTOCOL.md 6.21): the daemon sends
+                # the next batch right behind this report, so the buffer
+                # is seldom found without a whole frame before we would
+                # block (Client._release), and a batch of more than half
+                # the ring would wait for a release that never comes, the
+                # next batch's first piece pinning the slots behind it,
+                # until write-timeout-ms cuts the connection.  Every slot
+                # held is handled by now: this batch's and older ones.
+                ring = self.client._ring
+                if ring is not None and ring.held > ring.slots // 2 and not ring.pinned:
+                    self.client._give_back()
         elif mtype == wire.SESSION_RESULT:
             if self.state == _OPENING or msg["job_id"] != self.id:
                 raise self._bad("a result out of turn")
