@@ -16,6 +16,8 @@ calls (a decode is a pure function of its bytes and the version).
 import math
 import struct
 
+import numpy as np
+
 from .errors import ProtocolError, FrameTooBig
 
 # ---- frames (section 2) ----------------------------------------------------
@@ -32,6 +34,7 @@ VERSION_AUTH = 3         # AUTH_*; result flag bits 12-16
 VERSION_PIXELS = 4       # PIXELS; scramble fast-owen
 VERSION_SESSIONS = 5     # SESSION_OPEN .. SESSION_CLOSE (section 6.21)
 VERSION_KNOWN_ABS = 6    # JOB_RESULT's known integral of |f| (section 6.10)
+VERSION_PARTS = 6        # part sessions: SESSION_PART, SESSION_PART_SUMS (section 6.22)
 
 # ---- limits (section 8) ----------------------------------------------------
 
@@ -52,6 +55,17 @@ AUTH_NONCE_BYTES = AUTH_MAC_BYTES = 32
 SESSION_TOKEN_BYTES = 32
 SESSION_NAME_MAX = 31
 SESSION_MAX_VALUES = CHUNK_BYTES // 8   # values in one inline SESSION_VALUES
+SAMPLING_BLOCK = 4096                  # points a block of a sampling job
+SAMPLING_MAX_BLOCKS = 1 << 20          # blocks a sampling job may have
+SAMPLING_TOP = 64                      # largest |f| a block keeps
+# One block's sums in SESSION_PART_SUMS (section 6.22), 608 bytes, and in
+# memory as a numpy record: qmc_sampling_sums without the block number.
+PART_RECORD = np.dtype([
+    ("count", "<u4"), ("nonfinite", "<u4"), ("f", "<f8", (2,)), ("absf", "<f8", (2,)),
+    ("g", "<f8", (2,)), ("mean_f", "<f8"), ("mean_g", "<f8"), ("m2_f", "<f8"),
+    ("m2_g", "<f8"), ("c_fg", "<f8"), ("top", "<f8", (SAMPLING_TOP,))])
+PART_SUMS_BYTES = PART_RECORD.itemsize            # 608
+PART_MAX_SUMS = CHUNK_BYTES // PART_SUMS_BYTES    # 1724 a frame
 
 # ---- code tables (section 5) -----------------------------------------------
 # name -> code.  A unit test checks each against its X-macro table in
@@ -119,6 +133,7 @@ SHM_ATTACH, SHM_OK, POINTS_SHM_CHUNK, SHM_RELEASE = 18, 19, 20, 21
 AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK, PIXELS = 22, 23, 24, 25
 SESSION_OPEN, SESSION_OPENED, SESSION_BATCH, SESSION_VALUES = 26, 27, 28, 29
 SESSION_REPORT, SESSION_RESULT, SESSION_RESUME, SESSION_CLOSE = 30, 31, 32, 33
+SESSION_PART, SESSION_PART_SUMS = 34, 35
 MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS": POINTS,
        "POINTS_CHUNK": POINTS_CHUNK, "END": END, "INTEGRATE": INTEGRATE,
        "JOB_ACCEPTED": JOB_ACCEPTED, "JOB_PROGRESS": JOB_PROGRESS, "JOB_RESULT": JOB_RESULT,
@@ -129,14 +144,15 @@ MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS
        "PIXELS": PIXELS, "SESSION_OPEN": SESSION_OPEN, "SESSION_OPENED": SESSION_OPENED,
        "SESSION_BATCH": SESSION_BATCH, "SESSION_VALUES": SESSION_VALUES,
        "SESSION_REPORT": SESSION_REPORT, "SESSION_RESULT": SESSION_RESULT,
-       "SESSION_RESUME": SESSION_RESUME, "SESSION_CLOSE": SESSION_CLOSE}
+       "SESSION_RESUME": SESSION_RESUME, "SESSION_CLOSE": SESSION_CLOSE,
+       "SESSION_PART": SESSION_PART, "SESSION_PART_SUMS": SESSION_PART_SUMS}
 NAMES = {code: name for name, code in MSG.items()}
 # What a server sends; a client receiving anything else has met a peer
 # that breaks the protocol.
 SERVER_SENT = frozenset((HELLO_OK, PONG, POINTS_CHUNK, END, JOB_ACCEPTED, JOB_PROGRESS,
                          JOB_RESULT, JOB_STATE, STATS_REPLY, ERROR, SHM_OK, POINTS_SHM_CHUNK,
                          AUTH_CHALLENGE, AUTH_OK, SESSION_OPENED, SESSION_BATCH,
-                         SESSION_REPORT, SESSION_RESULT))
+                         SESSION_REPORT, SESSION_RESULT, SESSION_PART, SESSION_PART_SUMS))
 CLIENT_SENT = frozenset(NAMES) - SERVER_SENT
 
 
@@ -285,6 +301,13 @@ class Layout:
                 # Whatever is left: the message's check says how much that
                 # must be (a session piece's data is inline only).
                 d[step[1]] = r.take(len(payload) - r.off)
+            elif kind == "records":
+                # The rest of the payload: exactly d[count] records.
+                size, count, _ = step[2]
+                left = len(payload) - r.off
+                if left != d[count] * size:
+                    raise _bad(self.name, "%s %d but %d record bytes" % (count, d[count], left))
+                d[step[1]] = bytes(r.take(left))
             elif kind == "sub":
                 d[step[1]] = step[2].decode(r.take(step[2].size), version)
             elif kind == "since":
@@ -364,7 +387,7 @@ class Layout:
                 if len(v) != step[2]:
                     raise ValueError("%s: %s must be %d bytes" % (self.name, step[1], step[2]))
                 out.append(v)
-            elif kind == "data" or kind == "tail":
+            elif kind == "data" or kind == "tail" or kind == "records":
                 out.append(bytes(d.get(step[1], b"")))
             elif kind == "stats":
                 out.append(_encode_stats(d[step[1]], self.name))
@@ -647,6 +670,60 @@ LAYOUTS.update({
 })
 
 
+def part_range(blocks, k, p):
+    """Part k of p of a job of `blocks` blocks: (first, count), blocks
+    [blocks (k-1) / p, blocks k / p) as `qmc integrate --part` takes them."""
+    first = blocks * (k - 1) // p
+    return first, blocks * k // p - first
+
+
+def part_records(raw):
+    """The records of a SESSION_PART_SUMS (its "records" bytes) as a
+    numpy array of PART_RECORD, a view of raw."""
+    return np.frombuffer(raw, dtype=PART_RECORD)
+
+
+def _check_session_part(d):
+    b, k, p = d["blocks"], d["part_k"], d["part_p"]
+    if not 1 <= b <= SAMPLING_MAX_BLOCKS or not 1 <= k <= p:
+        return "part %d of %d of a job of %d blocks" % (k, p, b)
+    if (d["first"], d["count"]) != part_range(b, k, p):
+        return "blocks %d + %d are not part %d of %d of %d blocks" % (
+            d["first"], d["count"], k, p, b)
+    if not math.isfinite(d["sampling"]["confidence"]):
+        return "confidence is not finite"
+
+
+def _check_part_sums(d):
+    n, first = d["n"], d["first"]
+    if not 1 <= n <= PART_MAX_SUMS or first >= SAMPLING_MAX_BLOCKS or \
+            n > SAMPLING_MAX_BLOCKS - first:
+        return "%d block sums from block %d" % (n, first)
+    raw = d.get("records", b"")
+    if len(raw) != n * PART_SUMS_BYTES:
+        return "%d block sums in %d bytes" % (n, len(raw))
+    r = part_records(raw)
+    if np.any(r["count"] > SAMPLING_BLOCK) or np.any(r["nonfinite"] > r["count"]):
+        return "a block of more than %d points, or more non-finite than points" \
+            % SAMPLING_BLOCK
+    top = r["top"]
+    # Non-negative and descending: a NaN fails both.
+    if not (np.all(top >= 0.0) and np.all(top[:, 1:] <= top[:, :-1])):
+        return "a block's largest values are negative, NaN or not descending"
+
+
+LAYOUTS.update({
+    SESSION_PART: Layout("SESSION_PART", (
+        ("u64", "session_id", None), ("u64", "fingerprint", None), ("u64", "blocks", None),
+        ("u64", "first", None), ("u64", "count", None), ("u32", "part_k", None),
+        ("u32", "part_p", None), ("sub", "sampling", SAMPLING)), _check_session_part),
+    SESSION_PART_SUMS: Layout("SESSION_PART_SUMS", (
+        ("u64", "session_id", None), ("u64", "first", None), ("u32", "n", None),
+        ("zero", None, 4), ("records", "records", (PART_SUMS_BYTES, "n", PART_MAX_SUMS))),
+        _check_part_sums),
+})
+
+
 def _bounds(layout):
     """(min, max) payload bytes of a layout, from its fields: section 6's table."""
     lo = hi = 0
@@ -670,6 +747,9 @@ def _bounds(layout):
             hi += CHUNK_BYTES
         elif kind == "tail":
             hi += CHUNK_BYTES
+        elif kind == "records":
+            lo += step[2][0]
+            hi += step[2][0] * step[2][2]
         elif kind == "stats":
             lo += 4
             hi += 4 + MAX_STATS * (10 + MAX_NAME)
