@@ -75,7 +75,7 @@ class SameFileAsTheCLI(unittest.TestCase):
         files = []
         for k in range(1, P + 1):
             p = c.integrate(f, dims, smoothness=smooth, name=cmd, part=(k, P), **opts)
-            self.assertIsInstance(p, parts.PartResult)
+            self.assertIsInstance(p, qmcd.PartResult)
             self.assertEqual((p.part_k, p.part_p, len(p.sums)), (k, P, p.count))
             # The CLI's words for the same job; it writes --command-format
             # among them, so this file carries it too.
