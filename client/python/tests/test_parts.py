@@ -26,6 +26,7 @@ import support
 import qmcd
 from qmcd import errors, parts, wire
 from test_hostile import Fake, read_frame, hello_ok, T
+from pinproxy import CutProxy
 import integrands
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -125,6 +126,38 @@ class SameFileAsTheCLI(unittest.TestCase):
             with self.assertRaisesRegex(qmcd.QmcdError, "not a part session"):
                 s.part()
             self.assertGreaterEqual(c.ping(), 0)
+
+
+class Resume(unittest.TestCase):
+    def test_cut_while_the_sums_stream(self):
+        """A part of 8192 blocks (5 MB of sums in five SESSION_PART_SUMS
+        frames) on a daemon with a 2 MiB output buffer, so that it still
+        owes sums, and the result, when the connection goes: the
+        connection drops after the first frame; integrate() reconnects
+        and resumes the finished session, which sends its sums again,
+        whole - the same as an uncut run's - and f is not evaluated
+        again."""
+        small = support.daemon("small-out", "--out-buffer-bytes", "2097152")
+        def f(x):
+            calls.append(len(x))
+            return x[:, 0]
+        opts = dict(method="mc", n=32 << 20, seed=9, part=(1, 1))
+        calls = []
+        with qmcd.connect(small.unix) as c:
+            want = c.integrate(f, 1, **opts)
+        self.assertEqual((want.count, sum(calls)), (8192, (32 << 20) + 4))
+        proxy = CutProxy(small.unix[5:], support.scratch(), after=1,
+                         mtype=wire.SESSION_PART_SUMS)
+        self.addCleanup(proxy.close)
+        calls = []
+        with qmcd.connect(proxy.endpoint) as c:
+            got = c.integrate(f, 1, **opts)
+        self.assertTrue(proxy.cut.is_set())
+        self.assertEqual(sum(calls), (32 << 20) + 4)
+        self.assertEqual((got.fingerprint, got.blocks, got.first, got.count),
+                         (want.fingerprint, want.blocks, want.first, want.count))
+        self.assertEqual(got.sums.tobytes(), want.sums.tobytes())
+        self.assertEqual(timeless(got.data()), timeless(want.data()))
 
 
 class HexFloats(unittest.TestCase):
