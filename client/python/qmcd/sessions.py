@@ -256,8 +256,10 @@ class Session:
                     self.client._give_back()
         elif mtype in (wire.SESSION_PART, wire.SESSION_PART_SUMS):
             # After the last report, with no batch on its way.
-            why = self._part.file(mtype, msg, self.id) if \
-                self.state == _WAITING and self._got == 0 else "a part's sums while the session runs"
+            if self.state == _WAITING and self._got == 0:
+                why = self._part.file(mtype, msg, self.id)
+            else:
+                why = "a part's sums while the session runs"
             if why:
                 raise self._bad(why)
         elif mtype == wire.SESSION_RESULT:

@@ -16,9 +16,11 @@ calls (a decode is a pure function of its bytes and the version).
 import math
 import struct
 
-import numpy as np
-
 from .errors import ProtocolError, FrameTooBig
+# Part sessions' block sums (section 6.22): their record and checks.
+from .wire_part import (SAMPLING_BLOCK, SAMPLING_MAX_BLOCKS, SAMPLING_TOP,  # noqa: F401
+                        PART_RECORD, PART_SUMS_BYTES, PART_MAX_SUMS, part_range, part_records,
+                        check_session_part, check_part_sums)
 
 # ---- frames (section 2) ----------------------------------------------------
 
@@ -55,17 +57,6 @@ AUTH_NONCE_BYTES = AUTH_MAC_BYTES = 32
 SESSION_TOKEN_BYTES = 32
 SESSION_NAME_MAX = 31
 SESSION_MAX_VALUES = CHUNK_BYTES // 8   # values in one inline SESSION_VALUES
-SAMPLING_BLOCK = 4096                  # points a block of a sampling job
-SAMPLING_MAX_BLOCKS = 1 << 20          # blocks a sampling job may have
-SAMPLING_TOP = 64                      # largest |f| a block keeps
-# One block's sums in SESSION_PART_SUMS (section 6.22), 608 bytes, and in
-# memory as a numpy record: qmc_sampling_sums without the block number.
-PART_RECORD = np.dtype([
-    ("count", "<u4"), ("nonfinite", "<u4"), ("f", "<f8", (2,)), ("absf", "<f8", (2,)),
-    ("g", "<f8", (2,)), ("mean_f", "<f8"), ("mean_g", "<f8"), ("m2_f", "<f8"),
-    ("m2_g", "<f8"), ("c_fg", "<f8"), ("top", "<f8", (SAMPLING_TOP,))])
-PART_SUMS_BYTES = PART_RECORD.itemsize            # 608
-PART_MAX_SUMS = CHUNK_BYTES // PART_SUMS_BYTES    # 1724 a frame
 
 # ---- code tables (section 5) -----------------------------------------------
 # name -> code.  A unit test checks each against its X-macro table in
@@ -670,57 +661,15 @@ LAYOUTS.update({
 })
 
 
-def part_range(blocks, k, p):
-    """Part k of p of a job of `blocks` blocks: (first, count), blocks
-    [blocks (k-1) / p, blocks k / p) as `qmc integrate --part` takes them."""
-    first = blocks * (k - 1) // p
-    return first, blocks * k // p - first
-
-
-def part_records(raw):
-    """The records of a SESSION_PART_SUMS (its "records" bytes) as a
-    numpy array of PART_RECORD, a view of raw."""
-    return np.frombuffer(raw, dtype=PART_RECORD)
-
-
-def _check_session_part(d):
-    b, k, p = d["blocks"], d["part_k"], d["part_p"]
-    if not 1 <= b <= SAMPLING_MAX_BLOCKS or not 1 <= k <= p:
-        return "part %d of %d of a job of %d blocks" % (k, p, b)
-    if (d["first"], d["count"]) != part_range(b, k, p):
-        return "blocks %d + %d are not part %d of %d of %d blocks" % (
-            d["first"], d["count"], k, p, b)
-    if not math.isfinite(d["sampling"]["confidence"]):
-        return "confidence is not finite"
-
-
-def _check_part_sums(d):
-    n, first = d["n"], d["first"]
-    if not 1 <= n <= PART_MAX_SUMS or first >= SAMPLING_MAX_BLOCKS or \
-            n > SAMPLING_MAX_BLOCKS - first:
-        return "%d block sums from block %d" % (n, first)
-    raw = d.get("records", b"")
-    if len(raw) != n * PART_SUMS_BYTES:
-        return "%d block sums in %d bytes" % (n, len(raw))
-    r = part_records(raw)
-    if np.any(r["count"] > SAMPLING_BLOCK) or np.any(r["nonfinite"] > r["count"]):
-        return "a block of more than %d points, or more non-finite than points" \
-            % SAMPLING_BLOCK
-    top = r["top"]
-    # Non-negative and descending: a NaN fails both.
-    if not (np.all(top >= 0.0) and np.all(top[:, 1:] <= top[:, :-1])):
-        return "a block's largest values are negative, NaN or not descending"
-
-
 LAYOUTS.update({
     SESSION_PART: Layout("SESSION_PART", (
         ("u64", "session_id", None), ("u64", "fingerprint", None), ("u64", "blocks", None),
         ("u64", "first", None), ("u64", "count", None), ("u32", "part_k", None),
-        ("u32", "part_p", None), ("sub", "sampling", SAMPLING)), _check_session_part),
+        ("u32", "part_p", None), ("sub", "sampling", SAMPLING)), check_session_part),
     SESSION_PART_SUMS: Layout("SESSION_PART_SUMS", (
         ("u64", "session_id", None), ("u64", "first", None), ("u32", "n", None),
         ("zero", None, 4), ("records", "records", (PART_SUMS_BYTES, "n", PART_MAX_SUMS))),
-        _check_part_sums),
+        check_part_sums),
 })
 
 

@@ -183,9 +183,10 @@ class HexFloats(unittest.TestCase):
                 self.assertEqual(float.fromhex(parts.hex_float(v)), v)
 
 
-def part_server(frames_after_report):
-    """A fake version-6 server: one batch of 4 points (the probes), then
-    after its values a report, frames_after_report(rid) and a result."""
+def part_server(frames_after_report, early=b""):
+    """A fake version-6 server: one batch of 4 points (the probes) and the
+    frames early(rid) makes, then after its values a report,
+    frames_after_report(rid) and a result."""
     def script(f, s):
         t, rid, _ = read_frame(s)
         s.sendall(hello_ok(rid, version=6))
@@ -196,7 +197,7 @@ def part_server(frames_after_report):
             "session_id": 9, "token": bytes(32), "dims": 2, "max_batch": 100,
             "memory_bytes": 1, "park_ms": 1}) + wire.encode(wire.SESSION_BATCH, rid, dict(
                 seq=0, count=4, first=0, points=4, dims=2, transport="inline", slot=0,
-                data_len=len(data), data=data)))
+                data_len=len(data), data=data)) + (early(rid) if early else b""))
         fr = read_frame(s)
         if fr is None or fr[0] != wire.SESSION_VALUES:
             return
@@ -238,8 +239,8 @@ def sums(rid, first, n, sid=9):
 
 
 class Hostile(unittest.TestCase):
-    def run_part(self, frames):
-        f = Fake(part_server(frames))
+    def run_part(self, frames, early=None):
+        f = Fake(part_server(frames, early))
         self.addCleanup(f.close)
         with qmcd.connect(f.endpoint, timeout=T, shm=False) as c:
             return c.integrate(lambda x: x[:, 0], 2, method="rqmc", n=4096, reps=16, seed=7,
@@ -267,6 +268,9 @@ class Hostile(unittest.TestCase):
         for frames, why in cases:
             with self.subTest(why), self.assertRaisesRegex(qmcd.ProtocolError, why):
                 self.run_part(frames)
+        # Sums while the batch waits for its values.
+        with self.assertRaisesRegex(qmcd.ProtocolError, "a part's sums while the session runs"):
+            self.run_part(lambda rid: b"", early=head)
 
     def test_version_5_server(self):
         def script(f, s):
