@@ -11,7 +11,8 @@
 #     integration sessions with Python functions equal to built-in
 #     integrands giving `qmc integrate`'s results bit for bit and the
 #     JSON bytes `qmc integrate --command` prints for a program computing
-#     the same function, resumed after a dropped connection;
+#     the same function, resumed after a dropped connection, and part
+#     sessions whose --part files equal the CLI's and merge into the whole run;
 #   - the package installs offline from a copy of the tree with Debian's
 #     pip and setuptools (pip install --no-build-isolation --target DIR)
 #     and, installed, talks to a daemon;

@@ -8,6 +8,7 @@ served by the daemon, and integration jobs with honest error bars.
     tile = c.pixels("zsobol", (1920, 1080), spp=16, dims=8, tile=(0, 0, 64, 64))
     r = c.run("genz-gaussian", 5, method="rqmc")   # r.estimate, r.error, r.flags
     s = c.integrate(lambda x: (x**2).sum(axis=1), 3, method="rqmc")  # your own f
+    p = c.integrate(f, 3, method="rqmc", n=65536, part=(1, 4))  # p.write("part1")
     eng = qmcd.Sobol(8, scramble=False, client=c)  # scipy's engine, on the daemon
 
 Pure Python (the standard library and numpy); the wire protocol is
@@ -22,6 +23,7 @@ from .errors import (QmcdError, ServerError, ProtocolError, FrameTooBig, Connect
                      Timeout, AuthError, error_name, strerror)
 from .jobs import Job, JobResult, JobProgress, FLAG_MEANINGS
 from .sessions import Session, SessionBatch, SessionReport, SessionResult
+from .parts import PartResult
 
 __version__ = "0.1.0"
 
@@ -29,4 +31,5 @@ __all__ = ["Client", "connect", "tile_piece", "JOE_KUO_TABLE_HASH", "QMCEngine",
            "Halton", "Hammersley", "LatinHypercube", "Stratified", "Random", "QmcdError",
            "ServerError", "ProtocolError", "FrameTooBig", "ConnectionLost", "Timeout",
            "AuthError", "error_name", "strerror", "Job", "JobResult", "JobProgress",
-           "FLAG_MEANINGS", "Session", "SessionBatch", "SessionReport", "SessionResult"]
+           "FLAG_MEANINGS", "Session", "SessionBatch", "SessionReport", "SessionResult",
+           "PartResult"]

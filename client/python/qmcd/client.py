@@ -169,12 +169,17 @@ class Client(Streams, SessionsMixin):
         return exc
 
     def _release(self):
-        """Gives back every ring slot handled, before we might block.
-        Release is oldest first: while a session's batch holds slots
-        (pinned until its values are sent) nothing goes back."""
+        """Gives back every ring slot handled, before we might block."""
+        if not self._conn.whole_frame_buffered():
+            self._give_back()
+
+    def _give_back(self):
+        """SHM_RELEASE of every slot held, now (a session's report calls it
+        too: sessions.py).  Release is oldest first: while a session's
+        batch holds slots (pinned until its values are sent) nothing goes
+        back."""
         ring = self._ring
-        if ring is not None and ring.held and not ring.pinned and \
-                not self._conn.whole_frame_buffered():
+        if ring is not None and ring.held and not ring.pinned:
             held, ring.held = ring.held, 0
             self._send(wire.SHM_RELEASE, {"slots": held}, rid=0)
 

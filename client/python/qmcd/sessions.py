@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from . import wire
+from . import parts, wire
 from .errors import ProtocolError, QmcdError, ServerError, QMC_EINVAL
 from .jobs import JobResult, JobRequest
 
@@ -76,7 +76,10 @@ class SessionReport:
 class SessionRequest(JobRequest):
     """What a session's report needs of its request: the label (the
     function's name in full, or "f"), the method asked for, the
-    confidence."""
+    confidence; and, for a part's file, the `qmc integrate` words the
+    session's options stand for (cli_args)."""
+
+    cli_args = ()
 
 
 def _wire_name(name):
@@ -91,11 +94,22 @@ def _wire_name(name):
 def session_fields(dims, method="auto", *, smoothness="continuous", exact=None, name="",
                    max_batch=0, n=None, reps=None, seq=None, scramble=None, shuffle=False,
                    split_net=False, seed=0, tol_abs=0.0, tol_rel=0.0, max_evals=100000000,
-                   max_memory=64 << 20, confidence=0.95):
+                   max_memory=64 << 20, confidence=0.95, part=None):
     """SESSION_OPEN's fields (but transport) for a function of dims
     dimensions: the method and sampling spec as `qmc integrate` builds them
     for the same options (jobs.job_request), plus what the caller declares
-    about f."""
+    about f.  part: (k, p), part k of p of a fixed-n sampling job
+    (protocol version 6); such a session is named "command" on the wire,
+    as `qmc integrate --command` names its sessions, since the name
+    enters the job's fingerprint and parts must agree on it to merge."""
+    part_k = part_p = 0
+    if part is not None:
+        try:
+            part_k, part_p = (int(x) for x in part)
+        except (TypeError, ValueError):
+            raise ValueError("part %r: want (k, p) with 1 <= k <= p" % (part,)) from None
+        if not 1 <= part_k <= part_p < 2**32:
+            raise ValueError("part %d/%d: want 1 <= k <= p" % (part_k, part_p))
     from .jobs import job_request
     if smoothness not in wire.SMOOTHNESS:
         raise ValueError("smoothness %r: want one of %s" % (smoothness,
@@ -109,14 +123,20 @@ def session_fields(dims, method="auto", *, smoothness="continuous", exact=None, 
     j = job.fields
     fields = {"method": method, "smoothness": smoothness, "n_given": j["n_given"],
               "dims": j["dims"], "n_axis": j["n_axis"], "has_exact": exact is not None,
-              "part_k": 0, "part_p": 0, "max_evals": j["max_evals"],
+              "part_k": part_k, "part_p": part_p, "max_evals": j["max_evals"],
               "max_memory": j["max_memory"], "max_batch": int(max_batch),
               "tol_abs": j["tol_abs"], "tol_rel": j["tol_rel"],
               "exact": 0.0 if exact is None else float(exact), "sampling": j["sampling"],
-              "name": _wire_name(name or "")}
+              "name": "command" if part_p else _wire_name(name or "")}
     fields["transport"] = "inline"
     wire.LAYOUTS[wire.SESSION_OPEN].encode(fields)  # refused here, not on the wire
-    return fields, SessionRequest(fields, name or "f", method, float(confidence))
+    request = SessionRequest(fields, name or "f", method, float(confidence))
+    request.cli_args = parts.cli_args(
+        dims, method, smoothness, name or "f", exact,
+        dict(n=n, reps=reps, seq=seq, scramble=scramble, shuffle=shuffle, split_net=split_net,
+             seed=seed, tol_abs=tol_abs, tol_rel=tol_rel, max_evals=max_evals,
+             max_memory=max_memory, confidence=confidence))
+    return fields, request
 
 
 def ring_for(dims, max_batch):
@@ -167,6 +187,8 @@ class Session:
         self._v_lo = self._v_hi = 0
         self._refusal = None
         self._refusals = 0
+        f = request.fields
+        self._part = parts.Gather(f.get("part_k", 0), f.get("part_p", 0))
         self.t0 = time.monotonic()  # the result's seconds count from here
 
     def __repr__(self):
@@ -220,9 +242,32 @@ class Session:
                 self._unpin()
                 self._got = 0
                 self.state = _WAITING
+                # And go back now, once they are half the ring (as
+                # libqmcclient does, PROTOCOL.md 6.21): the daemon sends
+                # the next batch right behind this report, so the buffer
+                # is seldom found without a whole frame before we would
+                # block (Client._release), and a batch of more than half
+                # the ring would wait for a release that never comes, the
+                # next batch's first piece pinning the slots behind it,
+                # until write-timeout-ms cuts the connection.  Every slot
+                # held is handled by now: this batch's and older ones.
+                ring = self.client._ring
+                if ring is not None and ring.held > ring.slots // 2 and not ring.pinned:
+                    self.client._give_back()
+        elif mtype in (wire.SESSION_PART, wire.SESSION_PART_SUMS):
+            # After the last report, with no batch on its way.
+            if self.state == _WAITING and self._got == 0:
+                why = self._part.file(mtype, msg, self.id)
+            else:
+                why = "a part's sums while the session runs"
+            if why:
+                raise self._bad(why)
         elif mtype == wire.SESSION_RESULT:
             if self.state == _OPENING or msg["job_id"] != self.id:
                 raise self._bad("a result out of turn")
+            why = self._part.end()
+            if why:
+                raise self._bad(why)
             self._end(result=SessionResult(msg, self.request, self))
         elif mtype == wire.ERROR:
             self._end(error=ServerError(msg["code"], msg["message"], self.request_id))
@@ -400,6 +445,18 @@ class Session:
             raise self._error
         return self._result
 
+    def part(self):
+        """A part session's answer once it has ended: a parts.PartResult
+        (fingerprint, blocks, first, count, the block sums; write() makes
+        the `--part` file); ServerError when it failed; QmcdError while it
+        runs, or when the session is not a part."""
+        self.result()  # raises unless it ended well
+        if self._part.head is None:
+            raise QmcdError(QMC_EINVAL, "session %s is not a part session (open it with "
+                            "part=(k, p))" % self.id)
+        return parts.PartResult(self._part, self.request.cli_args, self._result.seconds,
+                                self.report)
+
     def close(self):
         """SESSION_CLOSE: frees the session on the daemon now; returns the
         report at close."""
@@ -441,6 +498,8 @@ class SessionsMixin:
         fields, request = session_fields(dims, method, **options)
         with self._lock:
             self._need(wire.VERSION_SESSIONS, "sessions")
+            if fields["part_p"]:
+                self._need(wire.VERSION_PARTS, "part sessions")
             self._session_ring(fields)
             fields["transport"] = "shm" if self._ring is not None else "inline"
             return self._start_session(wire.SESSION_OPEN, fields, fields["dims"], request)
@@ -492,7 +551,11 @@ class SessionsMixin:
         and keeps the estimate, its error bar and the flags, as for a job.
         Returns a SessionResult: json() is the line `qmc integrate
         --command PROGRAM --json` prints for a PROGRAM computing f, byte
-        for byte but for seconds (wall time, here from this call).
+        for byte but for seconds (wall time, here from this call).  With
+        part=(k, p) (a fixed-n sampling method; protocol version 6) it
+        computes part k of p of the job and returns a parts.PartResult,
+        whose write() makes the file `qmc integrate --command PROGRAM
+        --part k/p` writes, for `qmc merge`.
 
         options: method and tol_rel, tol_abs, n, reps, seq, scramble,
         shuffle, split_net, seed, max_evals, max_memory, confidence (as
@@ -533,6 +596,10 @@ class SessionsMixin:
                         on_report(s.report)
                 r = s.result()
                 r.seconds = time.monotonic() - t0
+                if s._part.part_p:
+                    p = s.part()
+                    p.seconds = r.seconds
+                    return p
                 return r
             except (ConnectionLost, Timeout):
                 tries += 1

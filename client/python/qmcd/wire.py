@@ -17,6 +17,10 @@ import math
 import struct
 
 from .errors import ProtocolError, FrameTooBig
+# Part sessions' block sums (section 6.22): their record and checks.
+from .wire_part import (SAMPLING_BLOCK, SAMPLING_MAX_BLOCKS, SAMPLING_TOP,  # noqa: F401
+                        PART_RECORD, PART_SUMS_BYTES, PART_MAX_SUMS, part_range, part_records,
+                        check_session_part, check_part_sums)
 
 # ---- frames (section 2) ----------------------------------------------------
 
@@ -32,6 +36,7 @@ VERSION_AUTH = 3         # AUTH_*; result flag bits 12-16
 VERSION_PIXELS = 4       # PIXELS; scramble fast-owen
 VERSION_SESSIONS = 5     # SESSION_OPEN .. SESSION_CLOSE (section 6.21)
 VERSION_KNOWN_ABS = 6    # JOB_RESULT's known integral of |f| (section 6.10)
+VERSION_PARTS = 6        # part sessions: SESSION_PART, SESSION_PART_SUMS (section 6.22)
 
 # ---- limits (section 8) ----------------------------------------------------
 
@@ -119,6 +124,7 @@ SHM_ATTACH, SHM_OK, POINTS_SHM_CHUNK, SHM_RELEASE = 18, 19, 20, 21
 AUTH_CHALLENGE, AUTH_RESPONSE, AUTH_OK, PIXELS = 22, 23, 24, 25
 SESSION_OPEN, SESSION_OPENED, SESSION_BATCH, SESSION_VALUES = 26, 27, 28, 29
 SESSION_REPORT, SESSION_RESULT, SESSION_RESUME, SESSION_CLOSE = 30, 31, 32, 33
+SESSION_PART, SESSION_PART_SUMS = 34, 35
 MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS": POINTS,
        "POINTS_CHUNK": POINTS_CHUNK, "END": END, "INTEGRATE": INTEGRATE,
        "JOB_ACCEPTED": JOB_ACCEPTED, "JOB_PROGRESS": JOB_PROGRESS, "JOB_RESULT": JOB_RESULT,
@@ -129,14 +135,15 @@ MSG = {"HELLO": HELLO, "HELLO_OK": HELLO_OK, "PING": PING, "PONG": PONG, "POINTS
        "PIXELS": PIXELS, "SESSION_OPEN": SESSION_OPEN, "SESSION_OPENED": SESSION_OPENED,
        "SESSION_BATCH": SESSION_BATCH, "SESSION_VALUES": SESSION_VALUES,
        "SESSION_REPORT": SESSION_REPORT, "SESSION_RESULT": SESSION_RESULT,
-       "SESSION_RESUME": SESSION_RESUME, "SESSION_CLOSE": SESSION_CLOSE}
+       "SESSION_RESUME": SESSION_RESUME, "SESSION_CLOSE": SESSION_CLOSE,
+       "SESSION_PART": SESSION_PART, "SESSION_PART_SUMS": SESSION_PART_SUMS}
 NAMES = {code: name for name, code in MSG.items()}
 # What a server sends; a client receiving anything else has met a peer
 # that breaks the protocol.
 SERVER_SENT = frozenset((HELLO_OK, PONG, POINTS_CHUNK, END, JOB_ACCEPTED, JOB_PROGRESS,
                          JOB_RESULT, JOB_STATE, STATS_REPLY, ERROR, SHM_OK, POINTS_SHM_CHUNK,
                          AUTH_CHALLENGE, AUTH_OK, SESSION_OPENED, SESSION_BATCH,
-                         SESSION_REPORT, SESSION_RESULT))
+                         SESSION_REPORT, SESSION_RESULT, SESSION_PART, SESSION_PART_SUMS))
 CLIENT_SENT = frozenset(NAMES) - SERVER_SENT
 
 
@@ -285,6 +292,13 @@ class Layout:
                 # Whatever is left: the message's check says how much that
                 # must be (a session piece's data is inline only).
                 d[step[1]] = r.take(len(payload) - r.off)
+            elif kind == "records":
+                # The rest of the payload: exactly d[count] records.
+                size, count, _ = step[2]
+                left = len(payload) - r.off
+                if left != d[count] * size:
+                    raise _bad(self.name, "%s %d but %d record bytes" % (count, d[count], left))
+                d[step[1]] = bytes(r.take(left))
             elif kind == "sub":
                 d[step[1]] = step[2].decode(r.take(step[2].size), version)
             elif kind == "since":
@@ -364,7 +378,7 @@ class Layout:
                 if len(v) != step[2]:
                     raise ValueError("%s: %s must be %d bytes" % (self.name, step[1], step[2]))
                 out.append(v)
-            elif kind == "data" or kind == "tail":
+            elif kind == "data" or kind == "tail" or kind == "records":
                 out.append(bytes(d.get(step[1], b"")))
             elif kind == "stats":
                 out.append(_encode_stats(d[step[1]], self.name))
@@ -647,6 +661,18 @@ LAYOUTS.update({
 })
 
 
+LAYOUTS.update({
+    SESSION_PART: Layout("SESSION_PART", (
+        ("u64", "session_id", None), ("u64", "fingerprint", None), ("u64", "blocks", None),
+        ("u64", "first", None), ("u64", "count", None), ("u32", "part_k", None),
+        ("u32", "part_p", None), ("sub", "sampling", SAMPLING)), check_session_part),
+    SESSION_PART_SUMS: Layout("SESSION_PART_SUMS", (
+        ("u64", "session_id", None), ("u64", "first", None), ("u32", "n", None),
+        ("zero", None, 4), ("records", "records", (PART_SUMS_BYTES, "n", PART_MAX_SUMS))),
+        check_part_sums),
+})
+
+
 def _bounds(layout):
     """(min, max) payload bytes of a layout, from its fields: section 6's table."""
     lo = hi = 0
@@ -670,6 +696,9 @@ def _bounds(layout):
             hi += CHUNK_BYTES
         elif kind == "tail":
             hi += CHUNK_BYTES
+        elif kind == "records":
+            lo += step[2][0]
+            hi += step[2][0] * step[2][2]
         elif kind == "stats":
             lo += 4
             hi += 4 + MAX_STATS * (10 + MAX_NAME)

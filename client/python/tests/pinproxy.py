@@ -100,12 +100,14 @@ class PinProxy:
 
 class CutProxy(PinProxy):
     """A PinProxy that breaks its first connection after relaying `after`
-    SESSION_BATCH frames (both sockets shut down, as a network failure
-    would): the client sees the connection drop in the middle of a
-    session, the daemon parks the session.  Later connections pass."""
+    SESSION_BATCH frames (or frames of type `mtype`; both sockets shut
+    down, as a network failure would): the client sees the connection drop
+    in the middle of a session, the daemon parks the session.  Later
+    connections pass."""
 
-    def __init__(self, upstream_path, directory, after):
+    def __init__(self, upstream_path, directory, after, mtype=wire.SESSION_BATCH):
         self.after = after
+        self.mtype = mtype
         self.batches = 0
         self.cut = threading.Event()
         self.first = None
@@ -117,7 +119,7 @@ class CutProxy(PinProxy):
         try:
             for h, p in _frames(src):
                 dst.sendall(h + p)
-                if not from_client and h[5] == wire.SESSION_BATCH and \
+                if not from_client and h[5] == self.mtype and \
                         self.first is dst and not self.cut.is_set():
                     self.batches += 1
                     if self.batches == self.after:

@@ -303,6 +303,40 @@ class Lifecycle(unittest.TestCase):
             self.assertGreaterEqual(c.ping(), 0)
 
 
+class RingRelease(unittest.TestCase):
+    """Batches of three of the ring's four slots, one after another: the
+    daemon sends each batch right behind the report on the last, into the
+    one slot free, and waits for the others.  The client must give the
+    last batch's slots back at its report (once they are half the ring,
+    libqmcclient's rule): had it waited until no whole frame is buffered,
+    the next batch's first piece - already in its buffer - would pin the
+    slots behind it, and the daemon would wait for a release that never
+    comes until its write-timeout-ms (short here) cut the connection.  So
+    the session must end on the connection it opened on, with nothing
+    timed out on the daemon, and give the built-in job's bytes."""
+
+    def test_batches_of_three_quarters_of_the_ring(self):
+        d = support.daemon("short-write", "--write-timeout-ms", "2000")
+        a, u = [1.5, 2.0, 2.5, 1.0], [0.5, 0.3, 0.7, 0.2]
+        want = cli("genz-gaussian", 4, "--a 1.5,2,2.5,1 --u 0.5,0.3,0.7,0.2",
+                   "rqmc --n 65536")
+        reports = []
+        with qmcd.connect(d.unix) as c:
+            r = c.integrate(gaussian(a, u), 4, smoothness="analytic", name="genz-gaussian",
+                            method="rqmc", n=65536, max_batch=262144, retries=0,
+                            on_report=lambda rep: reports.append(rep.batches))
+            ring = c._ring
+            # Four slots of 4 MiB; a batch (262144 points and their
+            # values, 10 MiB) takes three: two in flight exceed the ring.
+            self.assertEqual((ring.slots, ring.slot_bytes), (4, 4 << 20))
+            self.assertGreater(-(-262144 * 5 * 8 // ring.slot_bytes), ring.slots // 2)
+            stats = c.stats()
+        self.assertEqual(reports, [1, 2, 3, 4])  # 16 x 65536 points: four batches
+        self.assertEqual(stats["connections_timed_out"], 0)
+        got = json.loads(r.json())
+        self.assertEqual([(k, got.get(k)) for k in KEYS], [(k, want.get(k)) for k in KEYS])
+
+
 def session_server(batches, refuse_first=False):
     """A fake server: handshake at version 5, SESSION_OPENED for dims 2,
     then batches(rid) frames; with refuse_first, the first SESSION_VALUES

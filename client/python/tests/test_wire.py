@@ -10,6 +10,8 @@ import re
 import struct
 import unittest
 
+import numpy as np
+
 import support
 from qmcd import wire, errors
 from qmcd.errors import ProtocolError, FrameTooBig
@@ -18,15 +20,24 @@ ALL = frozenset(wire.NAMES)
 
 
 def vectors():
+    """name -> frame: tests/vectors/proto/*.hex by their names, and the
+    version-6 message types' (v6/*.hex) as "v6/NAME".  v5/ holds older
+    versions' frames of known types (test_known_abs_by_version)."""
     d = support.tree_file("tests", "vectors", "proto")
     out = {}
-    for f in sorted(glob.glob(os.path.join(d, "*.hex"))):
-        with open(f) as h:
-            out[os.path.basename(f)[:-4]] = bytes.fromhex(h.read())
+    for sub in ("", "v6"):
+        for f in sorted(glob.glob(os.path.join(d, sub, "*.hex"))):
+            with open(f) as h:
+                out[os.path.join(sub, os.path.basename(f)[:-4])] = bytes.fromhex(h.read())
     return out
 
 
 def split(frame):
+    """(type, request id, payload); a type this package does not know (a
+    newer version's) is returned unchecked, for the caller to skip."""
+    if frame[5] not in wire.NAMES:
+        rid, n = struct.unpack("<QI", frame[8:20])
+        return frame[5], rid, frame[24:24 + n]
     t, rid, n = wire.parse_header(frame[:24], wire.MAX_PAYLOAD, ALL)
     return t, rid, frame[24:24 + n]
 
@@ -35,15 +46,43 @@ class Vectors(unittest.TestCase):
     def test_every_vector_round_trips(self):
         vs = vectors()
         self.assertGreaterEqual(len(vs), 25)
+        seen = set()
         for name, frame in vs.items():
             t, rid, payload = split(frame)
             if t not in wire.LAYOUTS:
                 continue  # a message of a newer version than this package speaks
+            seen.add(t)
             with self.subTest(name):
                 self.assertEqual(len(frame), 24 + len(payload))
-                self.assertEqual(wire.NAMES[t].lower(), name)
+                self.assertEqual(wire.NAMES[t].lower(), os.path.basename(name))
                 d = wire.decode_payload(t, payload)
                 self.assertEqual(wire.encode(t, rid, d), frame)
+        self.assertTrue({wire.SESSION_PART, wire.SESSION_PART_SUMS} <= seen)
+
+    def test_an_unknown_type_is_skipped(self):
+        # A vector of a type newer than this package: split() hands it
+        # back unchecked, and the loops above skip it.
+        frame = wire.header(wire.PING, 1, 2) + b"\0\0"
+        frame = frame[:5] + bytes([200]) + frame[6:]
+        t, rid, payload = split(frame)
+        self.assertEqual((t, rid, payload), (200, 1, b"\0\0"))
+        self.assertNotIn(t, wire.LAYOUTS)
+
+    def test_part_vectors_mean_what_the_text_says(self):
+        vs = vectors()
+        h = wire.decode_payload(wire.SESSION_PART, split(vs["v6/session_part"])[2])
+        # Part 2 of 3 of 16 blocks: blocks 5 .. 9.
+        self.assertEqual((h["session_id"], h["blocks"], h["first"], h["count"], h["part_k"],
+                          h["part_p"], h["sampling"]["sampler"], h["sampling"]["reps"]),
+                         (5, 16, 5, 5, 2, 3, "rqmc", 16))
+        q = wire.decode_payload(wire.SESSION_PART_SUMS, split(vs["v6/session_part_sums"])[2])
+        r = wire.part_records(q["records"])
+        self.assertEqual((q["first"], q["n"], len(r)), (5, 1, 1))
+        # f was 4, 2 and 1 at three of 4096 points, 0 elsewhere.
+        self.assertEqual((int(r["count"][0]), int(r["nonfinite"][0]), r["f"][0].tolist(),
+                          r["absf"][0].tolist(), r["top"][0][:4].tolist()),
+                         (4096, 0, [7.0, 0.0], [7.0, 0.0], [4.0, 2.0, 1.0, 0.0]))
+        self.assertEqual(r["mean_f"][0], 7.0 / 4096)
 
     def test_vectors_mean_what_the_text_says(self):
         vs = vectors()
@@ -168,6 +207,72 @@ class Tables(unittest.TestCase):
         want = [("QMC_" + r.split(",")[0].strip(), int(r.split(",")[1]), quoted(r)[0])
                 for r in rows]
         self.assertEqual(want, list(errors.ERROR_MAP))
+
+
+class PartDamage(unittest.TestCase):
+    """SESSION_PART and SESSION_PART_SUMS are refused as the C decoder
+    refuses them (protocol/messages_part.c): a range that is not part k of
+    p, records that cannot be a block's."""
+
+    def test_part_checks(self):
+        vs = vectors()
+        good = wire.decode_payload(wire.SESSION_PART, split(vs["v6/session_part"])[2])
+        for change, why in (({"first": 6}, "are not part 2 of 3"),
+                            ({"count": 4}, "are not part 2 of 3"),
+                            ({"part_k": 4}, "part 4 of 3"),
+                            ({"part_k": 0}, "part 0 of 3"),
+                            ({"blocks": 0, "first": 0, "count": 0}, "of 0 blocks"),
+                            ({"blocks": (1 << 20) + 1}, "blocks")):
+            with self.subTest(change):
+                payload = wire.LAYOUTS[wire.SESSION_PART].encode(good)
+                bad = dict(good, **change)
+                raw = bytearray(payload)
+                struct.pack_into("<QQQQQII", raw, 0, bad["session_id"], bad["fingerprint"],
+                                 bad["blocks"], bad["first"], bad["count"], bad["part_k"],
+                                 bad["part_p"])
+                with self.assertRaisesRegex(ProtocolError, why):
+                    wire.decode_payload(wire.SESSION_PART, bytes(raw))
+        # The empty part of a job of 2 blocks in 3 parts is a part.
+        empty = dict(good, blocks=2, part_k=1, first=0, count=0)
+        self.assertEqual(wire.decode_payload(
+            wire.SESSION_PART, wire.LAYOUTS[wire.SESSION_PART].encode(empty))["count"], 0)
+
+    def test_sums_checks(self):
+        vs = vectors()
+        payload = split(vs["v6/session_part_sums"])[2]
+        rec = np.frombuffer(payload[24:], dtype=wire.PART_RECORD).copy()
+
+        def frame(recs, first=5, n=None):
+            n = len(recs) if n is None else n
+            return struct.pack("<QQI4x", 5, first, n) + recs.tobytes()
+        self.assertEqual(wire.decode_payload(wire.SESSION_PART_SUMS, frame(rec))["n"], 1)
+        two = np.concatenate([rec, rec])
+        self.assertEqual(wire.decode_payload(wire.SESSION_PART_SUMS, frame(two))["n"], 2)
+        cases = []
+        for field, k, v, why in (("count", None, 4097, "more than 4096 points"),
+                                 ("nonfinite", None, 4097, "more non-finite"),
+                                 ("top", 0, -1.0, "negative, NaN or not descending"),
+                                 ("top", 1, float("nan"), "negative, NaN or not descending"),
+                                 ("top", 3, 3.0, "negative, NaN or not descending")):
+            r = rec.copy()
+            if k is None:
+                r[field][0] = v
+            else:
+                r[field][0][k] = v
+            cases.append((frame(r), why))
+        cases += [(frame(rec, n=0), "record bytes"), (frame(rec, n=2), "record bytes"),
+                  (frame(rec, first=1 << 20), "from block 1048576"),
+                  (frame(two, first=(1 << 20) - 1), "from block 1048575"),
+                  (frame(rec)[:-1], "record bytes")]
+        for raw, why in cases:
+            with self.subTest(why):
+                with self.assertRaisesRegex(ProtocolError, why):
+                    wire.decode_payload(wire.SESSION_PART_SUMS, raw)
+        # Any sum's bits are carried: an overflow to infinity, a NaN.
+        r = rec.copy()
+        r["f"][0] = [float("inf"), float("nan")]
+        back = wire.decode_payload(wire.SESSION_PART_SUMS, frame(r))
+        self.assertEqual(back["records"], r.tobytes())
 
 
 def header(mtype, rid, plen, version=1, flags=0, reserved=0, magic=b"QMCD"):
