@@ -195,7 +195,9 @@ void session_test_drive_ahead(qmc_session *s, const qmc_integrand *f, outcome *o
     qmc_session_status(s, &o->status);
 }
 
-outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f)
+/* Opens a session on ss, drives it (each batch told ahead or not) and
+ * frees it: the one opening both drivers below share. */
+static outcome via_session(const qmc_session_spec *ss, const qmc_integrand *f, int ahead)
 {
     outcome o;
     memset(&o, 0, sizeof o);
@@ -203,22 +205,22 @@ outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_int
     o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
     if (o.err)
         return o;
-    session_test_drive_ahead(s, f, &o);
+    if (ahead)
+        session_test_drive_ahead(s, f, &o);
+    else
+        o = session_test_drive(s, f);
     qmc_session_free(s);
     return o;
 }
 
+outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f)
+{
+    return via_session(ss, f, 1);
+}
+
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f)
 {
-    outcome o;
-    memset(&o, 0, sizeof o);
-    qmc_session *s = NULL;
-    o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
-    if (o.err)
-        return o;
-    o = session_test_drive(s, f);
-    qmc_session_free(s);
-    return o;
+    return via_session(ss, f, 0);
 }
 
 outcome session_test_via_integrate(const qmc_integrate_spec *is, const qmc_integrand *f)
