@@ -38,33 +38,9 @@ set -u
 PY=/usr/bin/python3
 T="timeout 300"
 
-# exp(x1 + ... + xd), reading whole batches (text or f64), as a user would.
-cat > "$tmp/expsum.py" <<'EOF'
-import struct, sys
-import numpy as np
-fmt, d = sys.argv[1], int(sys.argv[2])
-inp, out = sys.stdin.buffer, sys.stdout.buffer
-while True:
-    if fmt == "f64":
-        h = inp.read(4)
-        if len(h) < 4:
-            sys.exit(0)
-        (n,) = struct.unpack("<I", h)
-        x = np.frombuffer(inp.read(n * d * 8), dtype="<f8").reshape(n, d)
-        out.write(np.exp(x.sum(axis=1)).astype("<f8").tobytes())
-    else:
-        rows = []
-        while True:
-            line = inp.readline()
-            if not line:
-                sys.exit(0)
-            if line == b"\n":
-                break
-            rows.append([float(v) for v in line.split()])
-        v = np.exp(np.array(rows).sum(axis=1))
-        out.write("".join(repr(float(a)) + "\n" for a in v).encode())
-    out.flush()
-EOF
+# exp(x1 + ... + xd), reading whole batches (text or f64), as a user would
+# (tests/e2e/batchfn.py, shared with test_command_cli.sh).
+cp "$(dirname "$0")/batchfn.py" "$tmp/batchfn.py"
 
 errlines() { grep -v "^==[0-9]*==WARNING: ASan doesn't fully support makecontext/swapcontext" "$tmp/err"; }
 # A part file without its wall time: the seconds line and the digest over it.
@@ -115,7 +91,7 @@ for spec in "3 f64 $U rqmc --n 16384 --reps 8 --seed 5" \
     set -- $spec
     K=$1 fmt=$2 ep=$3
     shift 3
-    C="$PY $tmp/expsum.py $fmt 3"
+    C="$PY $tmp/batchfn.py $fmt expsum 3"
     J="--dims 3 --command-format $fmt --smoothness smooth --method $*"
     # shellcheck disable=SC2086
     $T "$QMC" integrate --command "$C" $J --json > "$tmp/whole$n.json" 2> "$tmp/err" ||
@@ -160,10 +136,10 @@ done
 # ---- 3. a part of no blocks (2 blocks in 3 parts: part 1 is [0, 0)) --------------------------------------------------------------
 J="--dims 3 --command-format f64 --method rqmc --n 4096 --reps 2 --seed 1"
 # shellcheck disable=SC2086
-$T "$QMC" integrate --command "$PY $tmp/expsum.py f64 3" $J --part 1/3 > "$tmp/e.l" 2> "$tmp/err"
+$T "$QMC" integrate --command "$PY $tmp/batchfn.py f64 expsum 3" $J --part 1/3 > "$tmp/e.l" 2> "$tmp/err"
 lrc=$?
 # shellcheck disable=SC2086
-$T "$QMC" integrate --connect "$U" --command "$PY $tmp/expsum.py f64 3" $J --part 1/3 \
+$T "$QMC" integrate --connect "$U" --command "$PY $tmp/batchfn.py f64 expsum 3" $J --part 1/3 \
     > "$tmp/e.r" 2> "$tmp/err"
 rrc=$?
 timeless "$tmp/e.l" > "$tmp/lt"
@@ -175,7 +151,7 @@ else bad "an empty part: exit $lrc / $rrc, $(errlines)"; diff "$tmp/lt" "$tmp/rt
 # ---- 4. an oversized part ------------------------------------------------------------------
 start small --listen "unix:$tmp/small.sock" --max-sessions-memory-per-peer 8388608 || finish
 # 64 x 2^20 points: 16384 blocks, 10 MB of block sums for part 1/1.
-$T "$QMC" integrate --connect "unix:$tmp/small.sock" --command "$PY $tmp/expsum.py f64 3" \
+$T "$QMC" integrate --connect "unix:$tmp/small.sock" --command "$PY $tmp/batchfn.py f64 expsum 3" \
     --dims 3 --command-format f64 --method rqmc --n 1048576 --reps 64 --part 1/1 \
     > "$tmp/out" 2> "$tmp/err"
 rc=$?
@@ -185,7 +161,7 @@ else bad "an oversized part: exit $rc, '$(errlines)'"; fi
 # The daemon serves on: a small part there is the in-process file.
 J="--dims 3 --command-format f64 --smoothness smooth --method rqmc --n 8192 --reps 4 --seed 7"
 # shellcheck disable=SC2086
-$T "$QMC" integrate --connect "unix:$tmp/small.sock" --command "$PY $tmp/expsum.py f64 3" $J \
+$T "$QMC" integrate --connect "unix:$tmp/small.sock" --command "$PY $tmp/batchfn.py f64 expsum 3" $J \
     --part 2/3 > "$tmp/s.r" 2> "$tmp/err" || bad "after the refusal: $(errlines)"
 timeless "$tmp/s.r" > "$tmp/rt"
 timeless "$tmp/l3.2" > "$tmp/lt"

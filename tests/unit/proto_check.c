@@ -10,6 +10,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include <ctype.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "proto_check.h"
@@ -65,4 +67,35 @@ void proto_check_refused(const qmc_msg *m, const char *what, uint8_t *buf, size_
     if (got != QMC_EINVAL)
         fail_msg("encoding %s with %s gave %d", qmc_msg_type_name(m->type), what, got);
     assert_int_equal(qmc_proto_encoded_size(m), 0);
+}
+
+size_t proto_read_hex(const char *path, uint8_t *out, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    if (f == NULL)
+        fail_msg("cannot open %s (run the test from the top directory)", path);
+    size_t n = 0;
+    int c, hi = -1;
+    while ((c = fgetc(f)) != EOF) {
+        if (c == '#') {
+            while ((c = fgetc(f)) != EOF && c != '\n')
+                ;
+            continue;
+        }
+        if (isspace(c))
+            continue;
+        if (!isxdigit(c))
+            fail_msg("%s: unexpected character %c", path, c);
+        int v = isdigit(c) ? c - '0' : tolower(c) - 'a' + 10;
+        if (hi < 0) {
+            hi = v;
+        } else {
+            assert_true(n < cap);
+            out[n++] = (uint8_t)(hi << 4 | v);
+            hi = -1;
+        }
+    }
+    fclose(f);
+    assert_int_equal(hi, -1);
+    return n;
 }

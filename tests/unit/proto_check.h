@@ -3,7 +3,7 @@
  * test_proto_session.c, test_proto_part.c) make of every message they
  * build: it encodes (and encoded_size agrees), a field the decoder must
  * refuse, mutated in its bytes, is QMC_EPROTO, a field the encoder must
- * refuse is QMC_EINVAL.
+ * refuse is QMC_EINVAL; and the reader of their hex vector files.
  *
  * Must not: build messages (the tests and their builders do).
  */
@@ -47,5 +47,11 @@ void proto_same_f64(double a, double b);
 
 /* Encoding m (into buf) is QMC_EINVAL, and encoded_size 0. */
 void proto_check_refused(const qmc_msg *m, const char *what, uint8_t *buf, size_t cap);
+
+/* The bytes of a vector file (the .hex files in tests/vectors/proto) into out[0 ..
+ * cap): hex digits, white space and '#' comments to end of line ignored;
+ * fails the test on a missing file, another character, an odd digit or
+ * more than cap bytes. */
+size_t proto_read_hex(const char *path, uint8_t *out, size_t cap);
 
 #endif

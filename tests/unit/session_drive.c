@@ -103,6 +103,25 @@ outcome session_test_outcome(qmc_session *s)
     return o;
 }
 
+/* Asks s for its batch into b, the n-th the driver has had (the first's
+ * number kept in seq0): 0 once the session is done (its end reason
+ * set), else 1 with b running, numbered in order and of f's dims. */
+static int ask_in_order(qmc_session *s, const qmc_integrand *f, qmc_session_batch *b,
+                        uint64_t n, uint64_t *seq0)
+{
+    assert_int_equal(qmc_session_ask(s, b), 0);
+    if (b->count == 0) {
+        assert_int_not_equal(b->end, QMC_SESSION_RUNNING);
+        return 0;
+    }
+    assert_int_equal(b->end, QMC_SESSION_RUNNING);
+    if (n == 0)
+        *seq0 = b->seq;
+    assert_int_equal(b->seq, *seq0 + n); /* numbered in order */
+    assert_int_equal(b->dims, f->dims);
+    return 1;
+}
+
 /* Answers every batch with f until the session is done. */
 outcome session_test_drive(qmc_session *s, const qmc_integrand *f)
 {
@@ -110,16 +129,8 @@ outcome session_test_drive(qmc_session *s, const qmc_integrand *f)
     uint64_t batches = 0, largest = 0, seq0 = 0;
     for (;;) {
         qmc_session_batch b;
-        assert_int_equal(qmc_session_ask(s, &b), 0);
-        if (b.count == 0) {
-            assert_int_not_equal(b.end, QMC_SESSION_RUNNING);
+        if (!ask_in_order(s, f, &b, batches, &seq0))
             break;
-        }
-        assert_int_equal(b.end, QMC_SESSION_RUNNING);
-        if (batches == 0)
-            seq0 = b.seq;
-        assert_int_equal(b.seq, seq0 + batches); /* numbered in order */
-        assert_int_equal(b.dims, f->dims);
         session_test_tell(s, f, &b, &buf);
         batches++;
         largest = b.count > largest ? b.count : largest;
@@ -147,14 +158,8 @@ void session_test_drive_ahead(qmc_session *s, const qmc_integrand *f, outcome *o
     uint64_t seq0 = 0;
     for (;;) {
         qmc_session_batch b;
-        assert_int_equal(qmc_session_ask(s, &b), 0);
-        if (b.count == 0) {
-            assert_int_not_equal(b.end, QMC_SESSION_RUNNING);
+        if (!ask_in_order(s, f, &b, o->batches, &seq0))
             break;
-        }
-        if (o->batches == 0)
-            seq0 = b.seq;
-        assert_int_equal(b.seq, seq0 + o->batches);
         /* Only this batch's buffer grows: the other may hold values told
          * ahead, still to be summed. */
         const int w = (int)(o->batches % 2);
@@ -195,7 +200,9 @@ void session_test_drive_ahead(qmc_session *s, const qmc_integrand *f, outcome *o
     qmc_session_status(s, &o->status);
 }
 
-outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f)
+/* Opens a session on ss, drives it (each batch told ahead or not) and
+ * frees it: the one opening both drivers below share. */
+static outcome via_session(const qmc_session_spec *ss, const qmc_integrand *f, int ahead)
 {
     outcome o;
     memset(&o, 0, sizeof o);
@@ -203,22 +210,22 @@ outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_int
     o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
     if (o.err)
         return o;
-    session_test_drive_ahead(s, f, &o);
+    if (ahead)
+        session_test_drive_ahead(s, f, &o);
+    else
+        o = session_test_drive(s, f);
     qmc_session_free(s);
     return o;
 }
 
+outcome session_test_via_session_ahead(const qmc_session_spec *ss, const qmc_integrand *f)
+{
+    return via_session(ss, f, 1);
+}
+
 outcome session_test_via_session(const qmc_session_spec *ss, const qmc_integrand *f)
 {
-    outcome o;
-    memset(&o, 0, sizeof o);
-    qmc_session *s = NULL;
-    o.err = qmc_session_new(ss, &s, o.why, sizeof o.why);
-    if (o.err)
-        return o;
-    o = session_test_drive(s, f);
-    qmc_session_free(s);
-    return o;
+    return via_session(ss, f, 0);
 }
 
 outcome session_test_via_integrate(const qmc_integrate_spec *is, const qmc_integrand *f)

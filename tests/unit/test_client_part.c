@@ -66,14 +66,22 @@ static int file(qmc__client_part *p, uint64_t session, qmc_msg m)
     return err;
 }
 
-static void test_good_sequence(void **state)
+/* The sums filled in and a fresh filer opened as part 2 of 3, where the
+ * two sequence tests below start. */
+static qmc__client_part part_2_of_3(void)
 {
-    (void)state;
     fill_sums();
     qmc__client_part p;
     memset(&p, 0, sizeof p);
     p.part_k = 2;
     p.part_p = 3;
+    return p;
+}
+
+static void test_good_sequence(void **state)
+{
+    (void)state;
+    qmc__client_part p = part_2_of_3();
     /* 300 blocks, part 2/3: [100, 200). */
     assert_int_equal(file(&p, 7, head(7, 300, 2, 3)), 0);
     char why[128];
@@ -96,11 +104,7 @@ static void test_good_sequence(void **state)
 static void test_refusals(void **state)
 {
     (void)state;
-    fill_sums();
-    qmc__client_part p;
-    memset(&p, 0, sizeof p);
-    p.part_k = 2;
-    p.part_p = 3;
+    qmc__client_part p = part_2_of_3();
     assert_int_equal(file(&p, 7, piece(7, 100, 1)), QMC_EPROTO);  /* sums before the head */
     assert_int_equal(file(&p, 7, head(8, 300, 2, 3)), QMC_EPROTO); /* another session's */
     assert_int_equal(file(&p, 7, head(7, 300, 1, 3)), QMC_EPROTO); /* another part */

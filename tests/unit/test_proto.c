@@ -1275,38 +1275,6 @@ static void write_vector(const char *path, const uint8_t *b, size_t n)
     assert_int_equal(fclose(f), 0);
 }
 
-/* Reads hex digits, ignoring white space and '#' comments to end of line. */
-static size_t read_vector(const char *path, uint8_t *out, size_t cap)
-{
-    FILE *f = fopen(path, "r");
-    if (f == NULL)
-        fail_msg("cannot open %s (run the test from the top directory)", path);
-    size_t n = 0;
-    int c, hi = -1;
-    while ((c = fgetc(f)) != EOF) {
-        if (c == '#') {
-            while ((c = fgetc(f)) != EOF && c != '\n')
-                ;
-            continue;
-        }
-        if (isspace(c))
-            continue;
-        if (!isxdigit(c))
-            fail_msg("%s: unexpected character %c", path, c);
-        int v = isdigit(c) ? c - '0' : tolower(c) - 'a' + 10;
-        if (hi < 0) {
-            hi = v;
-        } else {
-            assert_true(n < cap);
-            out[n++] = (uint8_t)(hi << 4 | v);
-            hi = -1;
-        }
-    }
-    fclose(f);
-    assert_int_equal(hi, -1);
-    return n;
-}
-
 /* The whole of a text file, NUL-terminated (freed by the caller). */
 static char *slurp(const char *path)
 {
@@ -1338,7 +1306,7 @@ static void test_vectors(void **state)
             write_vector(path, frame, n);
             continue;
         }
-        size_t vn = read_vector(path, frame2, sizeof frame2);
+        size_t vn = proto_read_hex(path, frame2, sizeof frame2);
         if (vn != n || memcmp(frame, frame2, n) != 0)
             fail_msg("%s: the encoder no longer reproduces the vector", path);
         assert_int_equal(decode(frame2, vn, &d), (int)vn);

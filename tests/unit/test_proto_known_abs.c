@@ -17,44 +17,18 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
-#include <ctype.h>
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "qmc/proto.h"
+#include "proto_check.h"
 
 #define CAP 4096
 #define H QMC_PROTO_HEADER_BYTES
 #define V5 QMC_PROTO_VERSION_SESSIONS
 #define V6 QMC_PROTO_VERSION_KNOWN_ABS
-
-/* Hex digits of a vector file, white space ignored. */
-static size_t read_hex(const char *path, uint8_t *out)
-{
-    FILE *f = fopen(path, "r");
-    if (f == NULL)
-        fail_msg("cannot open %s (run the test from the top directory)", path);
-    size_t n = 0;
-    int c, hi = -1;
-    while ((c = fgetc(f)) != EOF) {
-        if (isspace(c))
-            continue;
-        assert_true(isxdigit(c));
-        int v = isdigit(c) ? c - '0' : tolower(c) - 'a' + 10;
-        if (hi < 0) {
-            hi = v;
-        } else {
-            assert_true(n < CAP);
-            out[n++] = (uint8_t)(hi << 4 | v);
-            hi = -1;
-        }
-    }
-    fclose(f);
-    assert_int_equal(hi, -1);
-    return n;
-}
 
 static uint32_t payload_len(const uint8_t *frame)
 {
@@ -69,7 +43,7 @@ static uint32_t payload_len(const uint8_t *frame)
 static void old_layout(const char *name, const char *v6_path, const char *v5_path)
 {
     uint8_t v6[CAP], v5[CAP], out[CAP];
-    size_t n6 = read_hex(v6_path, v6), n5 = read_hex(v5_path, v5);
+    size_t n6 = proto_read_hex(v6_path, v6, CAP), n5 = proto_read_hex(v5_path, v5, CAP);
     qmc_msg m, d;
     assert_int_equal(qmc_proto_decode_version(v6, n6, CAP, V6, &m), (int)n6);
     assert_true(m.u.result.has_known_abs == 0 || m.u.result.has_known_abs == 1);
@@ -109,7 +83,7 @@ static void test_tail_bytes(void **state)
 {
     (void)state;
     uint8_t buf[CAP], v6[CAP];
-    size_t n6 = read_hex("tests/vectors/proto/job_result.hex", v6);
+    size_t n6 = proto_read_hex("tests/vectors/proto/job_result.hex", v6, CAP);
     qmc_msg m, d;
     assert_int_equal(qmc_proto_decode(v6, n6, CAP, &m), (int)n6);
     const struct {

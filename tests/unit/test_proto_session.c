@@ -85,23 +85,25 @@ static const mutation mutations[] = {
     {QMC_MSG_SESSION_RESULT, 16, 4, 1u << 17, "undefined result flag"},
 };
 
+/* The valid message a mutation is written over: the variant, but for
+ * SESSION_RESULT (JOB_RESULT's layout: its own example is test_proto.c's,
+ * any valid result serves here). */
+static void build_for_mutation(qmc_msg_type type, int variant, qmc_msg *m)
+{
+    if (type == QMC_MSG_SESSION_RESULT) {
+        memset(m, 0, sizeof *m);
+        m->type = QMC_MSG_SESSION_RESULT;
+        m->request_id = 11;
+    } else {
+        proto_session_build(type, variant, m);
+    }
+}
+
 static void test_mutations(void **state)
 {
     (void)state;
-    for (size_t i = 0; i < sizeof mutations / sizeof mutations[0]; i++) {
-        const mutation *mu = &mutations[i];
-        qmc_msg m;
-        if (mu->type == QMC_MSG_SESSION_RESULT) {
-            /* JOB_RESULT's layout: its own example is test_proto.c's, any
-             * valid result serves here. */
-            memset(&m, 0, sizeof m);
-            m.type = QMC_MSG_SESSION_RESULT;
-            m.request_id = 11;
-        } else {
-            proto_session_build(mu->type, PROTO_SESSION_EXAMPLE, &m);
-        }
-        proto_check_mutation(&m, mu, frame, sizeof frame);
-    }
+    proto_check_mutations(mutations, sizeof mutations / sizeof mutations[0], build_for_mutation,
+                          PROTO_SESSION_EXAMPLE, frame, sizeof frame);
 }
 
 static void refuse(const qmc_msg *m, const char *what)

@@ -36,11 +36,16 @@ static qmc_integrate_spec rqmc_spec(void)
     return is;
 }
 
-/* Drives s to its end, each batch told with tell_to into one of two
- * buffers in turn (two ring slots), scribbling over each batch's points
- * once its values are computed, as a careless or hostile client could. */
-static void drive_two_buffers(qmc_session *s, const qmc_integrand *f, double *a, double *b,
-                              size_t cap, outcome *o)
+/* Drives s to its end with its batches assembled in the caller's n
+ * buffers in turn (ring slots: batch k in bufs[k % n], checked), counting
+ * the batches in o.  Told plainly (tell_to), each batch's points are
+ * scribbled over once its values are computed, as a careless or hostile
+ * client could.  Told ahead (tell_ahead, as qmcd does: the client holds
+ * batch k's slot while k + 1 is collected), each is caught up at once and
+ * its values scribbled once summed; the tells that came back behind are
+ * counted in o->behind. */
+static void drive_ring(qmc_session *s, const qmc_integrand *f, double *const *bufs, size_t n,
+                       size_t cap, int ahead, outcome *o)
 {
     double *vals = malloc(cap * sizeof *vals);
     assert_non_null(vals);
@@ -50,14 +55,26 @@ static void drive_two_buffers(qmc_session *s, const qmc_integrand *f, double *a,
         assert_int_equal(qmc_session_ask(s, &bt), 0);
         if (bt.count == 0)
             break;
-        if (k > 0) /* batch k was assembled where tell_to said */
-            assert_ptr_equal(bt.points, (k % 2) ? a : b);
+        if (k > 0) /* batch k was assembled where the tell before said */
+            assert_ptr_equal(bt.points, bufs[k % n]);
         f->eval(f->ctx, bt.points, bt.count, bt.dims, vals);
-        memset((void *)bt.points, 0xff, bt.count * bt.dims * sizeof(double)); /* NaNs */
-        double *next = (k % 2) ? b : a;
-        assert_int_equal(qmc_session_tell_to(s, bt.seq, vals, bt.count, next, cap, o->why,
-                                             sizeof o->why),
-                         0);
+        double *next = bufs[(k + 1) % n];
+        if (!ahead) {
+            memset((void *)bt.points, 0xff, bt.count * bt.dims * sizeof(double)); /* NaNs */
+            assert_int_equal(qmc_session_tell_to(s, bt.seq, vals, bt.count, next, cap, o->why,
+                                                 sizeof o->why),
+                             0);
+        } else {
+            assert_int_equal(qmc_session_tell_ahead(s, bt.seq, vals, bt.count, next, cap,
+                                                    o->why, sizeof o->why),
+                             0);
+            if (qmc_session_behind(s)) {
+                o->behind++;
+                qmc_session_catch_up(s);
+                assert_false(qmc_session_behind(s));
+            }
+            memset(vals, 0xff, cap * sizeof *vals); /* summed: nobody reads them again */
+        }
         o->batches++;
     }
     o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
@@ -78,8 +95,9 @@ static void test_same_bytes(void **state)
         assert_non_null(b);
         qmc_session_spec ss;
         qmc_session *s = session_test_open(&ss, &is, p.f, max_batch);
+        double *const ring[2] = {b, a}; /* batch 1 in a, 2 in b, ... */
         outcome got;
-        drive_two_buffers(s, p.f, a, b, cap, &got);
+        drive_ring(s, p.f, ring, 2, cap, 0, &got);
         session_test_assert_same(&got, &want, "rqmc through two caller buffers");
         assert_int_equal(got.batches, 65536 / max_batch); /* 8 x 8192 points */
         qmc_session_free(s);
@@ -172,40 +190,6 @@ static void test_refusals(void **state)
 
 /* ---- telling ahead ---------------------------------------------------------- */
 
-/* Drives s to its end as qmcd does: each batch told ahead with the next
- * assembled in the next of three buffers (ring slots: the client holds
- * batch k's while k + 1 is collected), caught up at once; counts the tells
- * that came back behind in o->behind. */
-static void drive_ahead_three(qmc_session *s, const qmc_integrand *f, double *bufs[3], size_t cap,
-                              outcome *o)
-{
-    double *vals = malloc(cap * sizeof *vals);
-    assert_non_null(vals);
-    memset(o, 0, sizeof *o);
-    for (uint64_t k = 0;; k++) {
-        qmc_session_batch bt;
-        assert_int_equal(qmc_session_ask(s, &bt), 0);
-        if (bt.count == 0)
-            break;
-        if (k > 0)
-            assert_ptr_equal(bt.points, bufs[k % 3]);
-        f->eval(f->ctx, bt.points, bt.count, bt.dims, vals);
-        assert_int_equal(qmc_session_tell_ahead(s, bt.seq, vals, bt.count, bufs[(k + 1) % 3],
-                                                cap, o->why, sizeof o->why),
-                         0);
-        if (qmc_session_behind(s)) {
-            o->behind++;
-            qmc_session_catch_up(s);
-            assert_false(qmc_session_behind(s));
-        }
-        memset(vals, 0xff, cap * sizeof *vals); /* summed: nobody reads them again */
-        o->batches++;
-    }
-    o->err = qmc_session_result(s, &o->rep, o->why, sizeof o->why);
-    qmc_session_status(s, &o->status);
-    free(vals);
-}
-
 /* A fixed job's groups are all known: every tell but the last comes back
  * behind, the result is the same bytes, and only the job's batches are
  * ever handed out (the status counts exactly the job's evaluations). */
@@ -215,18 +199,14 @@ static void test_ahead_same_bytes(void **state)
     problem p = session_test_make("genz-gaussian", DIMS, NULL, NULL);
     qmc_integrate_spec is = rqmc_spec();
     outcome want = session_test_via_integrate(&is, p.f);
-    qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 8192;
     const size_t cap = 8192;
     double *bufs[3];
     for (int i = 0; i < 3; i++)
         assert_non_null(bufs[i] = malloc(cap * DIMS * sizeof *bufs[i]));
-    qmc_session *s;
-    char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+    qmc_session_spec ss;
+    qmc_session *s = session_test_open(&ss, &is, p.f, cap);
     outcome got;
-    drive_ahead_three(s, p.f, bufs, cap, &got);
+    drive_ring(s, p.f, bufs, 3, cap, 1, &got);
     session_test_assert_same(&got, &want, "rqmc told ahead into three buffers");
     assert_int_equal(got.batches, 8);   /* 8 x 8192 points, one replicate a batch */
     assert_int_equal(got.behind, 7);    /* the last has no next group */
@@ -247,17 +227,14 @@ static void test_ahead_behind_then(void **state)
     problem p = session_test_make("genz-oscillatory", DIMS, NULL, NULL);
     qmc_integrate_spec is = rqmc_spec();
     outcome want = session_test_via_integrate(&is, p.f);
-    qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 8192;
     const size_t cap = 8192;
     double *slot = malloc(cap * DIMS * sizeof *slot), *copy = malloc(cap * DIMS * sizeof *copy);
     double *vals = malloc(cap * sizeof *vals);
     assert_true(slot && copy && vals);
     char why[256];
     for (int how = 0; how < 3; how++) {
-        qmc_session *s;
-        assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
+        qmc_session_spec ss;
+        qmc_session *s = session_test_open(&ss, &is, p.f, cap);
         qmc_session_batch b;
         assert_int_equal(qmc_session_ask(s, &b), 0);
         p.f->eval(p.f->ctx, b.points, b.count, b.dims, vals);
@@ -306,15 +283,12 @@ static void test_ahead_values_in_next(void **state)
     problem p = session_test_make("genz-gaussian", DIMS, NULL, NULL);
     qmc_integrate_spec is = rqmc_spec();
     outcome want = session_test_via_integrate(&is, p.f);
-    qmc_session_spec ss;
-    session_test_spec(&ss, &is, p.f);
-    ss.max_batch = 8192;
     const size_t cap = 8192;
     double *buf = malloc(cap * DIMS * sizeof *buf), *tmp = malloc(cap * sizeof *tmp);
     assert_true(buf && tmp);
-    qmc_session *s;
+    qmc_session_spec ss;
+    qmc_session *s = session_test_open(&ss, &is, p.f, cap);
     char why[256];
-    assert_int_equal(qmc_session_new(&ss, &s, why, sizeof why), 0);
     outcome got;
     memset(&got, 0, sizeof got);
     for (;;) {
