@@ -17,6 +17,7 @@
  * Pure computation: no allocation here.
  */
 #include "integrate_memory.h"
+#include "rule_pilot.h"
 #include "vegas_map.h"
 #include "qmc/quad.h"
 #include "qmc/sampling.h"
@@ -137,6 +138,13 @@ static uint64_t rule_bytes(const qmc_integrate_spec *spec, uint32_t dims, qmc_me
     }
 }
 
+/* A rule's workspace, or the RQMC pilot that may check its bar after it
+ * is freed (rule_pilot.h). */
+static uint64_t checked_rule_bytes(const qmc_integrate_spec *spec, uint64_t rule)
+{
+    return max_u64(rule, qmc__rule_pilot_bytes(spec->max_evals));
+}
+
 uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qmc_integrand *f,
                                         const qmc_integrand *g)
 {
@@ -145,7 +153,8 @@ uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qm
     /* The one rule auto picks for this integrand (qmc__auto_pick is its
      * own choice), then possibly RQMC, directly or after the rule; a map
      * only without a control variate and without jumps (auto_map). */
-    uint64_t rule = rule_bytes(spec, f->dims, qmc__auto_pick(spec, f, g));
+    uint64_t rule =
+        checked_rule_bytes(spec, rule_bytes(spec, f->dims, qmc__auto_pick(spec, f, g)));
     int may_map = !g && f->smoothness < QMC_SMOOTH_DISCONTINUOUS;
     return max_u64(rule, auto_rqmc_bytes(spec, f->dims, may_map, g != NULL));
 }
@@ -157,19 +166,23 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
     qmc_quad_gk_opts_init(&g);
     switch (spec->method) {
     case QMC_METHOD_GAUSS_KRONROD:
-        return qmc_quad_gk_workspace_bytes(g.max_subdiv);
+        return checked_rule_bytes(spec, qmc_quad_gk_workspace_bytes(g.max_subdiv));
     case QMC_METHOD_CUBATURE:
-        return qmc__cubature_bytes(spec, dims, 0);
+        return checked_rule_bytes(spec, qmc__cubature_bytes(spec, dims, 0));
     case QMC_METHOD_CLENSHAW_CURTIS:
-        return qmc__cubature_bytes(spec, dims, 1);
+        return checked_rule_bytes(spec, qmc__cubature_bytes(spec, dims, 1));
     case QMC_METHOD_MIDPOINT:
-        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, dims);
+        return checked_rule_bytes(
+            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, dims));
     case QMC_METHOD_TRAPEZOID:
-        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_TRAPEZOID, n, dims);
+        return checked_rule_bytes(
+            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_TRAPEZOID, n, dims));
     case QMC_METHOD_SIMPSON:
-        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_SIMPSON, n, dims);
+        return checked_rule_bytes(
+            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_SIMPSON, n, dims));
     case QMC_METHOD_GAUSS_LEGENDRE:
-        return qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims);
+        return checked_rule_bytes(
+            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims));
     case QMC_METHOD_AUTO: {
         /* Whichever rule it may pick for these dims and budget (each
          * allocates exactly its workspace: cubature's regions and the
@@ -185,7 +198,7 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
                 rule = max_u64(rule, rule_bytes(spec, dims, rules[i]));
         /* Without the integrand: its RQMC with no control variate (the
          * longer rounds) and a map. */
-        return max_u64(rule, auto_rqmc_bytes(spec, dims, 1, 0));
+        return max_u64(checked_rule_bytes(spec, rule), auto_rqmc_bytes(spec, dims, 1, 0));
     }
     default:
         return sampling_bytes(spec);

@@ -16,7 +16,8 @@
  *    most twice the rule's bar (plus 32 ulps of the integral of |f|), so
  *    the truth lies within 3 bars whenever GK's bar holds.  Its
  *    evaluations are added to the result's.
- * Nothing else confirms.  Not a tensor rule's siblings: on kinks they
+ * Failing that, an RQMC pilot may (rule_pilot.h).  Not a tensor rule's
+ * siblings: on kinks they
  * agree with the estimate by phase as the levels do (genz-continuous, d =
  * 2-3, 4000 random runs of the four tensor rules at 16-65 nodes an axis:
  * 7 wrong by 3.5 to 22 bars with the siblings agreeing), and a jump next

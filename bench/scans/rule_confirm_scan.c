@@ -14,7 +14,11 @@
  *     a log-uniform in 1..300, u uniform, the four tensor rules at 16, 33
  *     or 65 nodes an axis.  Counts the wrong runs that nothing but the
  *     declared kink flags (no unresolved, no roundoff): what confirming a
- *     kink by the rule's own sibling check would have left silent.
+ *     kink by the rule's own sibling check would have left silent, the
+ *     correct runs still flagged error_unreliable, and the silent runs
+ *     (wrong with no flag: what the RQMC pilot, rule_pilot.h, confirmed).
+ *   MODE jumps: the same with genz-discontinuous (axis-aligned jumps,
+ *     where the pilot is plain MC).
  * A run is judged as `qmc stability` judges (3 bars plus 64 ulps).  A
  * measuring tool: it must not be built into anything.
  *
@@ -109,13 +113,13 @@ static int scan_1d(int runs)
     return 0;
 }
 
-static int scan_kinks(int runs)
+static int scan_kinks(int runs, const char *fam)
 {
     const qmc_method ms[] = {QMC_METHOD_MIDPOINT, QMC_METHOD_TRAPEZOID, QMC_METHOD_SIMPSON,
                              QMC_METHOD_GAUSS_LEGENDRE};
     const uint32_t others = QMC_FLAG_UNRESOLVED | QMC_FLAG_ROUNDOFF | QMC_FLAG_NONFINITE;
     for (int mi = 0; mi < 4; mi++) {
-        int wrong = 0, only = 0;
+        int wrong = 0, only = 0, silent = 0, correct = 0, alarmed = 0;
         for (int r = 0; r < runs; r++) {
             const uint32_t d = 2 + (uint32_t)(u01() * 2);
             double a[3], u[3];
@@ -129,31 +133,44 @@ static int scan_kinks(int runs)
                 n++;
             qmc_result res;
             double truth;
-            int ok = judge("genz-continuous", d, a, u, ms[mi], n, &res, &truth);
+            int ok = judge(fam, d, a, u, ms[mi], n, &res, &truth);
             if (ok < 0)
                 return 3;
-            if (ok)
+            if (ok) {
+                correct++;
+                alarmed += (res.flags & QMC_FLAG_ERROR_UNRELIABLE) != 0;
                 continue;
+            }
             wrong++;
-            if (!(res.flags & others)) {
+            if (res.flags == 0) {
+                silent++;
+                printf("  silent: %s d %u n %u a1 %.17g u1 %.17g, %.2f bars off\n",
+                       qmc_method_name(ms[mi]), d, n, a[0], u[0],
+                       fabs(res.estimate - truth) / res.error);
+            } else if (!(res.flags & others)) {
                 only++;
                 printf("  only the declaration: %s d %u n %u a1 %.17g u1 %.17g, %.2f bars off\n",
                        qmc_method_name(ms[mi]), d, n, a[0], u[0],
                        fabs(res.estimate - truth) / res.error);
             }
         }
-        printf("%s: %d runs, %d wrong, %d flagged by nothing but the declared kink\n",
-               qmc_method_name(ms[mi]), runs, wrong, only);
+        printf("%s: %d runs, %d correct (%d flagged error_unreliable), %d wrong, %d flagged by "
+               "nothing but the declared kink, %d silent\n",
+               qmc_method_name(ms[mi]), runs, correct, alarmed, wrong, only, silent);
     }
     return 0;
 }
 
 int main(int argc, char **argv)
 {
-    if (argc != 4 || (strcmp(argv[1], "1d") && strcmp(argv[1], "kinks"))) {
-        fprintf(stderr, "usage: %s 1d|kinks RUNS SEED\n", argv[0]);
+    if (argc != 4 || (strcmp(argv[1], "1d") && strcmp(argv[1], "kinks") &&
+                      strcmp(argv[1], "jumps"))) {
+        fprintf(stderr, "usage: %s 1d|kinks|jumps RUNS SEED\n", argv[0]);
         return 2;
     }
     state = strtoull(argv[3], NULL, 10);
-    return strcmp(argv[1], "1d") == 0 ? scan_1d(atoi(argv[2])) : scan_kinks(atoi(argv[2]));
+    if (strcmp(argv[1], "1d") == 0)
+        return scan_1d(atoi(argv[2]));
+    return scan_kinks(atoi(argv[2]), strcmp(argv[1], "kinks") == 0 ? "genz-continuous"
+                                                                   : "genz-discontinuous");
 }

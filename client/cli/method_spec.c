@@ -106,16 +106,17 @@ static qmc_rule1d tensor_rule(qmc_method m)
 }
 
 /* A tensor rule's evaluations at k points an axis, checked (n + 1 once
- * past n).  In 1D a budget of 16 times QMC_INTEGRATE_CONFIRM_EVALS or more
- * also keeps room for the Gauss-Kronrod check that confirms a bar on an
- * integrand with declared breaks, so that such a run is checked too;
+ * past n).  A budget of 16 times QMC_INTEGRATE_CONFIRM_EVALS or more also
+ * keeps a sixteenth for the evidence that confirms a doubtful bar (the
+ * Gauss-Kronrod check from declared 1D breaks, then an RQMC pilot:
+ * rule_confirm.h, rule_pilot.h), so that such a run is checked too;
  * smaller budgets keep their grids (a sixteenth would move them). */
 static uint64_t tensor_cost(qmc_rule1d rule, uint64_t k, uint32_t d, uint64_t n)
 {
     uint64_t levels = power_upto(k, d, n) + power_upto((k + 1) / 2, d, n);
     uint64_t check = qmc_quad_tensor_check_evals(rule, k > UINT32_MAX ? UINT32_MAX : (uint32_t)k, d);
-    if (d == 1 && check != UINT64_MAX && n / 16 >= QMC_INTEGRATE_CONFIRM_EVALS)
-        check += QMC_INTEGRATE_CONFIRM_EVALS;
+    if (check != UINT64_MAX && n / 16 >= QMC_INTEGRATE_CONFIRM_EVALS)
+        check = check > UINT64_MAX - n / 16 ? UINT64_MAX : check + n / 16;
     return levels > n || check > n - levels ? n + 1 : levels + check;
 }
 

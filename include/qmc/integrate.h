@@ -55,6 +55,17 @@ typedef enum qmc_method {
  * (docs/FLAGS.md).  A caller that fits a 1D rule to a budget leaves room. */
 #define QMC_INTEGRATE_CONFIRM_EVALS 2048u
 
+/* A deterministic rule's bar that still carries QMC_FLAG_ERROR_UNRELIABLE
+ * after that (a kink or jump nothing confirmed, an unresolved rule, no
+ * coarse level) is checked by an RQMC pilot of this many Owen-scrambled
+ * Sobol replicates, run on what the rule left of the budget: at most the
+ * larger of QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's
+ * evaluations, at least 16 points a replicate.  The flag is cleared when
+ * the pilot, flagless itself, puts the truth within two bars of the rule's
+ * estimate (docs/FLAGS.md); `unresolved` stays.  A declared singularity is
+ * never confirmed. */
+#define QMC_INTEGRATE_PILOT_REPS 16u
+
 typedef struct qmc_integrate_spec {
     qmc_method method;
     qmc_sampling_spec sampling;  /* sampling methods (n, reps, seq, ...) */

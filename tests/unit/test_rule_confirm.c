@@ -18,8 +18,9 @@
  *     (1 +- 1e-16 before)                               step the nodes miss)
  *   step at 0.7071, no budget left for the check      flagged
  *   genz-continuous 2D, a kink 0.005 from the edge,   flagged (22 bars off,
- *     trapezoid; 3D by cubature                         the siblings agreeing)
- *   a jump with no breaks given, midpoint             flagged
+ *     trapezoid, no room for a pilot; 3D by cubature    the siblings agreeing),
+ *                                                       or covered
+ *   a jump with no breaks given, midpoint, no room    flagged
  *   x^-1/2 (singular) by Gauss-Legendre               flagged
  */
 #include <stdarg.h>
@@ -90,10 +91,11 @@ static void test_declared_step_confirmed(void **state)
                      o.res.estimate, o.res.error);
     }
     /* cubature straddles the step: 0.70709991 +- 5e-9, 17 bars off; GK
-     * from the break disagrees, and the flag stays */
+     * from the break disagrees, and the flag stays unless the pilot that
+     * follows (rule_pilot.h, test_rule_pilot.c) raised the bar to cover */
     outcome c = run("step", 1, NULL, u, QMC_METHOD_CUBATURE, 0, 0);
-    assert_true(fabs(c.res.estimate - c.truth) > 3 * c.res.error);
-    assert_true(c.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    if (fabs(c.res.estimate - c.truth) > 3 * c.res.error)
+        assert_true(c.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     /* the check is counted: midpoint's levels and siblings are 4096 +
      * 2048 + 2049 + 2050 + 32, the check two Kronrod rules */
     outcome o = run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, 0);
@@ -139,15 +141,20 @@ static void test_kinks_stay_flagged(void **state)
      * random genz-continuous runs, 7 like it) */
     const double a[] = {1.4617339774306408, 84.397495008916607},
                  u[] = {0.33021200091982683, 0.99500782653259678};
-    outcome o = run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, 0);
+    /* no room left for the pilot (rule_pilot.h): the rule's evaluations */
+    const uint64_t rule = 65 * 65 + 33 * 33 + qmc_quad_tensor_check_evals(QMC_RULE1D_TRAPEZOID,
+                                                                         65, 2);
+    outcome o = run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, rule);
+    assert_int_equal(o.res.evals, rule);
     assert_true(fabs(o.truth - continuous_truth(2, a, u)) <= 1e-14 * o.truth);
     assert_true(fabs(o.res.estimate - o.truth) > 20 * o.res.error);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     /* cubature, whose bar across kinks fell short in 8-38% of the
-     * benchmark's runs, likewise */
+     * benchmark's runs, likewise: flagged, or covered by a pilot's bar */
     const double a3[] = {5, 3, 7}, u3[] = {0.31, 0.62, 0.47};
     o = run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0, 0);
-    assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    if (!(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE))
+        assert_covers(&o);
 }
 
 static void test_unplaced_jump_and_singularity_flagged(void **state)
@@ -156,7 +163,9 @@ static void test_unplaced_jump_and_singularity_flagged(void **state)
     /* genz-discontinuous in 2D declares its jumps but cannot place them
      * (breaks are 1D), and siblings cannot confirm a jump */
     const double a[] = {1, 1}, u[] = {0.3, 0.6};
-    outcome o = run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 64, 0);
+    const uint64_t rule = 64 * 64 + 32 * 32 + qmc_quad_tensor_check_evals(QMC_RULE1D_MIDPOINT,
+                                                                         64, 2);
+    outcome o = run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 64, rule);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     o = run("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_LEGENDRE, 64, 0);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);

@@ -230,9 +230,12 @@ static void test_new_flags_quiet_on_clean_runs(void **state)
             /* Not a clean run: Gauss-Legendre at 16 nodes across a jump
              * is 10% off (0.4436 against 0.4040), and the check's
              * siblings at 9 and 10 nodes scatter by 0.168, a bar 38% of
-             * the estimate, which is unresolved by the book. */
+             * the estimate, which is unresolved by the book.  A plain MC
+             * pilot (rule_pilot.h) puts the truth within two such bars, so
+             * the bar itself is not in doubt. */
             if (m[j] == QMC_METHOD_GAUSS_LEGENDRE && i == 5) {
-                assert_true(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+                assert_true(o.rep.res.flags & QMC_FLAG_UNRESOLVED);
+                assert_false(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
                 assert_true(fabs(o.rep.res.estimate - 0.40404589877239888) <=
                             3 * o.rep.res.error);
                 continue;

@@ -76,7 +76,9 @@ static run_out run_n(const char *name, uint32_t d, const double *a, const double
 /* The issue's examples.  Simpson at 17 nodes on cos(100 x) gave 0.95367
  * +- 9.6e-8; midpoint at 16 on cos(2 pi 16 (x + y)) 1 +- 0; both levels
  * saw the same phase.  Now the siblings' scatter is the bar (it covers),
- * and a bar that size is unresolved. */
+ * and a bar that size is unresolved.  An RQMC pilot off the grid
+ * (rule_pilot.h) then puts the truth within two of those bars, so the bar
+ * is no longer in doubt: error_unreliable goes, unresolved stays. */
 static void test_issue_aliasing_examples(void **state)
 {
     (void)state;
@@ -84,7 +86,8 @@ static void test_issue_aliasing_examples(void **state)
     run_out o = run_n("cos", 1, a1, NULL, QMC_METHOD_SIMPSON, 17);
     const double t1 = sin(100.0) / 100.0;
     assert_true(fabs(t1 + 0.005063656411097588) < 1e-15);
-    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
+    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED);
+    assert_false(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_true(fabs(o.rep.res.estimate - t1) > 0.9);
     assert_true(fabs(o.rep.res.estimate - t1) <= 3 * o.rep.res.error);
 
@@ -92,7 +95,8 @@ static void test_issue_aliasing_examples(void **state)
     o = run_n("genz-oscillatory", 2, a2, u2, QMC_METHOD_MIDPOINT, 16);
     const double t2 = osc_truth(2, a2, u2);
     assert_true(fabs(t2) < 1e-12);
-    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED | QMC_FLAG_ERROR_UNRELIABLE);
+    ASSERT_FLAGS(o, QMC_FLAG_UNRESOLVED);
+    assert_false(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_true(fabs(o.rep.res.estimate - 1.0) < 1e-12);
     assert_true(fabs(o.rep.res.estimate - t2) <= 3 * o.rep.res.error);
 }

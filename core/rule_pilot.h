@@ -1,0 +1,65 @@
+/*
+ * rule_pilot.h - a deterministic rule's doubtful bar, checked by a small
+ * randomized pilot that shares none of the rule's nodes (private to core/).
+ *
+ * A rule's bar comes from its own nodes: two levels, their siblings, a
+ * rounding probe.  When those nodes cannot be trusted to see the integrand
+ * - a declared kink or jump that Gauss-Kronrod from declared breaks could
+ * not confirm (rule_confirm.h), a rule that does not resolve the integrand
+ * (rule_evidence.h, a tensor rule's marginals, cubature's suspects), a rule
+ * with no coarse level - the result carries error_unreliable.  Issue 23's
+ * remedy is evidence from elsewhere: QMC_INTEGRATE_PILOT_REPS
+ * Owen-scrambled Sobol replicates of m points each (m a power of two, at
+ * least 16), run through qmc_integrate as rqmc so that every piece of
+ * sampling evidence (heavy_tail, few_nonzero, zero_spread, tail_untested,
+ * nonfinite) and the integrand's audit (a scene's mis_undersampled and
+ * zero_pdf) judges the pilot too.
+ *
+ * The pilot confirms the rule's bar b when it carries no flag at all and
+ *     |rule - pilot| + t se  <=  2 b + 32 ulps of the integral of |f|,
+ * t the two-sided 99% Student-t quantile on reps - 1 degrees of freedom:
+ * whenever the pilot's interval holds, the truth then lies within 2 bars
+ * of the rule's estimate (the stability matrix's yardstick is 3).  The
+ * same form as Gauss-Kronrod's confirmation, with the pilot's 99% interval
+ * in place of GK's bar.  A pilot that saw too little (a peak it missed, a
+ * tiny light) carries a flag of its own and confirms nothing; a rule whose
+ * bar is below what the pilot can resolve stays flagged.
+ *
+ * Budget: at most what the rule left, and no more than the larger of
+ * QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's evaluations;
+ * nothing below QMC_INTEGRATE_PILOT_REPS x 16.  A caller that fits a rule
+ * to a budget keeps a sixteenth for it (client/cli/method_spec.c).  The
+ * pilot's evaluations are added to the result's.  Its seed is the
+ * request's sampling seed, so the result stays a pure function of the
+ * request.
+ *
+ * Not for: a declared singularity (never confirmed), nonfinite results.
+ * Must not: change the estimate or the bar; clear any flag but
+ * error_unreliable (unresolved stays, to say the rule did not resolve).
+ */
+#ifndef QMC_RULE_PILOT_H
+#define QMC_RULE_PILOT_H
+
+#include "qmc/integrate.h"
+#include <stddef.h>
+
+#include "qmc/result.h"
+
+/* Checks the bar of rule s->method's finished result res on f: clears
+ * QMC_FLAG_ERROR_UNRELIABLE (and may raise the bar) when a pilot vouches
+ * for it, and adds the pilot's evaluations to res->evals.  0, or
+ * QMC_ECANCELED when s->interrupt stopped the pilot: res is then the
+ * cancelled result (estimate and bar 0, its evaluations kept) and why
+ * says so. */
+int qmc__rule_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,
+                    char *why, size_t why_bytes);
+
+/* The evaluations of the pilot after a rule that spent rule_evals and
+ * left `left` (0: none fits). */
+uint64_t qmc__rule_pilot_evals(uint64_t rule_evals, uint64_t left);
+
+/* An upper bound on the block sums of any pilot within max_evals (the
+ * rule's workspace is freed before the pilot runs; integrate_memory.c). */
+uint64_t qmc__rule_pilot_bytes(uint64_t max_evals);
+
+#endif
