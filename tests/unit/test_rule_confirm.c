@@ -36,41 +36,11 @@
 #include "qmc/integrate.h"
 #include "qmc/quad.h"
 #include "qmc/testfn.h"
+#include "rule_run.h"
 
-typedef struct outcome {
-    qmc_result res;
-    double truth;
-} outcome;
-
-static outcome run(const char *name, uint32_t dims, const double *a, const double *u,
-                   qmc_method method, uint32_t n_axis, uint64_t max_evals)
+static void assert_covers(const rule_outcome *o)
 {
-    qmc_testfn *fn = NULL;
-    char why[256];
-    size_t np = a ? dims : 0, nu = u ? dims : 0;
-    if (qmc_testfn_new(name, dims, a, np, u, nu, &fn, why, sizeof why))
-        fail_msg("%s: %s", name, why);
-    const qmc_integrand *f = qmc_testfn_integrand(fn);
-    qmc_integrate_spec s;
-    qmc_integrate_spec_init(&s);
-    s.method = method;
-    s.n_axis = n_axis;
-    s.n_given = n_axis != 0;
-    if (max_evals)
-        s.max_evals = max_evals;
-    qmc_integrate_report rep;
-    int err = qmc_integrate(&s, f, NULL, NULL, NULL, &rep, why, sizeof why);
-    if (err)
-        fail_msg("%s: error %d: %s", name, err, why);
-    outcome o = {rep.res, f->exact};
-    qmc_testfn_free(fn);
-    return o;
-}
-
-static void assert_covers(const outcome *o)
-{
-    double allowed = 3.0 * o->res.error + 64.0 * DBL_EPSILON * fabs(o->truth);
-    if (!(fabs(o->res.estimate - o->truth) <= allowed))
+    if (!rule_covers(o))
         fail_msg("%.17g +- %.3g against %.17g (flags 0x%x)", o->res.estimate, o->res.error,
                  o->truth, o->res.flags);
 }
@@ -83,7 +53,7 @@ static void test_declared_step_confirmed(void **state)
                             QMC_METHOD_GAUSS_LEGENDRE};
     const uint32_t n[] = {4096, 4097, 4097, 512};
     for (int i = 0; i < 4; i++) {
-        outcome o = run("step", 1, NULL, u, m[i], n[i], 0);
+        rule_outcome o = rule_run("step", 1, NULL, u, m[i], n[i], 0);
         assert_true(fabs(o.truth - u[0]) <= DBL_EPSILON); /* the closed form */
         assert_covers(&o);
         if (o.res.flags & QMC_FLAG_ERROR_UNRELIABLE)
@@ -93,12 +63,12 @@ static void test_declared_step_confirmed(void **state)
     /* cubature straddles the step: 0.70709991 +- 5e-9, 17 bars off; GK
      * from the break disagrees, and the flag stays unless the pilot that
      * follows (rule_pilot.h, test_rule_pilot.c) raised the bar to cover */
-    outcome c = run("step", 1, NULL, u, QMC_METHOD_CUBATURE, 0, 0);
+    rule_outcome c = rule_run("step", 1, NULL, u, QMC_METHOD_CUBATURE, 0, 0);
     if (fabs(c.res.estimate - c.truth) > 3 * c.res.error)
         assert_true(c.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     /* the check is counted: midpoint's levels and siblings are 4096 +
      * 2048 + 2049 + 2050 + 32, the check two Kronrod rules */
-    outcome o = run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, 0);
+    rule_outcome o = rule_run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, 0);
     uint64_t rule = 4096 + 2048 + qmc_quad_tensor_check_evals(QMC_RULE1D_MIDPOINT, 4096, 1);
     assert_int_equal(o.res.evals, rule + 42);
 }
@@ -109,7 +79,7 @@ static void test_declared_step_at_the_end_flagged(void **state)
     /* every level and sibling of midpoint reads 1 at its last node: the
      * bar is 1e-16 and the truth 1e-9 below; GK from the break disagrees */
     const double u[] = {0.999999999};
-    outcome o = run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, 0);
+    rule_outcome o = rule_run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, 0);
     assert_true(fabs(o.res.estimate - o.truth) > 3 * o.res.error);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
 }
@@ -119,7 +89,7 @@ static void test_no_room_for_the_check(void **state)
     (void)state;
     const double u[] = {0.7071};
     uint64_t rule = 4096 + 2048 + qmc_quad_tensor_check_evals(QMC_RULE1D_MIDPOINT, 4096, 1);
-    outcome o = run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, rule);
+    rule_outcome o = rule_run("step", 1, NULL, u, QMC_METHOD_MIDPOINT, 4096, rule);
     assert_int_equal(o.res.evals, rule);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
 }
@@ -144,7 +114,7 @@ static void test_kinks_stay_flagged(void **state)
     /* no room left for the pilot (rule_pilot.h): the rule's evaluations */
     const uint64_t rule = 65 * 65 + 33 * 33 + qmc_quad_tensor_check_evals(QMC_RULE1D_TRAPEZOID,
                                                                          65, 2);
-    outcome o = run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, rule);
+    rule_outcome o = rule_run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, rule);
     assert_int_equal(o.res.evals, rule);
     assert_true(fabs(o.truth - continuous_truth(2, a, u)) <= 1e-14 * o.truth);
     assert_true(fabs(o.res.estimate - o.truth) > 20 * o.res.error);
@@ -152,7 +122,7 @@ static void test_kinks_stay_flagged(void **state)
     /* cubature, whose bar across kinks fell short in 8-38% of the
      * benchmark's runs, likewise: flagged, or covered by a pilot's bar */
     const double a3[] = {5, 3, 7}, u3[] = {0.31, 0.62, 0.47};
-    o = run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0, 0);
+    o = rule_run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0, 0);
     if (!(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE))
         assert_covers(&o);
 }
@@ -165,9 +135,9 @@ static void test_unplaced_jump_and_singularity_flagged(void **state)
     const double a[] = {1, 1}, u[] = {0.3, 0.6};
     const uint64_t rule = 64 * 64 + 32 * 32 + qmc_quad_tensor_check_evals(QMC_RULE1D_MIDPOINT,
                                                                          64, 2);
-    outcome o = run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 64, rule);
+    rule_outcome o = rule_run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 64, rule);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
-    o = run("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_LEGENDRE, 64, 0);
+    o = rule_run("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_LEGENDRE, 64, 0);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
 }
 

@@ -36,56 +36,10 @@
 #include <string.h>
 
 #include "hook.h"
+#include "rule_run.h"
 #include "rule_pilot.h"
 #include "qmc/integrate.h"
 #include "qmc/quad.h"
-#include "qmc/testfn.h"
-
-typedef struct outcome {
-    int err;
-    qmc_result res;
-    double truth;
-} outcome;
-
-static outcome run_spec(const char *name, uint32_t dims, const double *a, const double *u,
-                        qmc_integrate_spec *s)
-{
-    qmc_testfn *fn = NULL;
-    char why[256];
-    size_t np = a ? dims : 0, nu = u ? dims : 0;
-    if (qmc_testfn_new(name, dims, a, np, u, nu, &fn, why, sizeof why))
-        fail_msg("%s: %s", name, why);
-    const qmc_integrand *f = qmc_testfn_integrand(fn);
-    qmc_integrate_report rep;
-    outcome o;
-    o.err = qmc_integrate(s, f, NULL, NULL, NULL, &rep, why, sizeof why);
-    o.res = rep.res;
-    o.truth = f->exact;
-    qmc_testfn_free(fn);
-    return o;
-}
-
-static outcome run(const char *name, uint32_t dims, const double *a, const double *u,
-                   qmc_method method, uint32_t n_axis, uint64_t max_evals)
-{
-    qmc_integrate_spec s;
-    qmc_integrate_spec_init(&s);
-    s.method = method;
-    s.n_axis = n_axis;
-    s.n_given = n_axis != 0;
-    if (max_evals)
-        s.max_evals = max_evals;
-    outcome o = run_spec(name, dims, a, u, &s);
-    if (o.err)
-        fail_msg("%s: error %d", name, o.err);
-    return o;
-}
-
-static int covers(const outcome *o)
-{
-    return fabs(o->res.estimate - o->truth) <=
-           3.0 * o->res.error + 64.0 * DBL_EPSILON * fabs(o->truth);
-}
 
 static double continuous_truth(uint32_t d, const double *a, const double *u)
 {
@@ -115,15 +69,15 @@ static void test_kink_bar_confirmed(void **state)
     const qmc_rule1d r[] = {QMC_RULE1D_GAUSS_LEGENDRE, QMC_RULE1D_MIDPOINT};
     for (int i = 0; i < 2; i++) {
         const uint64_t rule = tensor_evals(r[i], 16, 3);
-        outcome own = run("genz-continuous", 3, a3, u3, m[i], 16, rule);
-        outcome o = run("genz-continuous", 3, a3, u3, m[i], 16, 0);
+        rule_outcome own = rule_run("genz-continuous", 3, a3, u3, m[i], 16, rule);
+        rule_outcome o = rule_run("genz-continuous", 3, a3, u3, m[i], 16, 0);
         assert_true(fabs(o.truth - continuous_truth(3, a3, u3)) <= 1e-14 * o.truth);
         assert_int_equal(own.res.evals, rule);
         assert_true(own.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
         assert_int_equal(o.res.flags, 0);
         assert_true(o.res.estimate == own.res.estimate && o.res.error == own.res.error);
         assert_int_equal(o.res.evals, rule + QMC_INTEGRATE_CONFIRM_EVALS);
-        assert_true(covers(&o));
+        assert_true(rule_covers(&o));
     }
 }
 
@@ -132,9 +86,9 @@ static void test_unresolved_stays(void **state)
     (void)state;
     /* 8 nodes an axis: a bar 11% of the estimate, unresolved by the book;
      * the pilot vouches for the bar, not for the rule */
-    outcome o = run("genz-continuous", 3, a3, u3, QMC_METHOD_GAUSS_LEGENDRE, 8, 0);
+    rule_outcome o = rule_run("genz-continuous", 3, a3, u3, QMC_METHOD_GAUSS_LEGENDRE, 8, 0);
     assert_int_equal(o.res.flags, QMC_FLAG_UNRESOLVED);
-    assert_true(covers(&o));
+    assert_true(rule_covers(&o));
 }
 
 static void test_jump_bar_raised(void **state)
@@ -142,8 +96,8 @@ static void test_jump_bar_raised(void **state)
     (void)state;
     const double a[] = {3, 2}, u[] = {0.3, 0.6};
     const uint64_t rule = tensor_evals(QMC_RULE1D_MIDPOINT, 128, 2);
-    outcome own = run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 128, rule);
-    outcome o = run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 128, 0);
+    rule_outcome own = rule_run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 128, rule);
+    rule_outcome o = rule_run("genz-discontinuous", 2, a, u, QMC_METHOD_MIDPOINT, 128, 0);
     const double truth = (exp(0.9) - 1) / 3 * (exp(1.2) - 1) / 2;
     assert_true(fabs(o.truth - truth) <= 1e-14 * truth);
     assert_true(own.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
@@ -152,7 +106,7 @@ static void test_jump_bar_raised(void **state)
     assert_true(o.res.error > own.res.error);
     assert_true(o.res.ci_low == o.res.estimate - o.res.error &&
                 o.res.ci_high == o.res.estimate + o.res.error);
-    assert_true(covers(&o));
+    assert_true(rule_covers(&o));
 }
 
 static void test_disagreement_keeps_the_flag(void **state)
@@ -161,8 +115,8 @@ static void test_disagreement_keeps_the_flag(void **state)
     const double a[] = {1.4617339774306408, 84.397495008916607},
                  u[] = {0.33021200091982683, 0.99500782653259678};
     const uint64_t rule = tensor_evals(QMC_RULE1D_TRAPEZOID, 65, 2);
-    outcome own = run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, rule);
-    outcome o = run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, 0);
+    rule_outcome own = rule_run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, rule);
+    rule_outcome o = rule_run("genz-continuous", 2, a, u, QMC_METHOD_TRAPEZOID, 65, 0);
     assert_true(fabs(o.res.estimate - o.truth) > 20 * o.res.error);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_true(o.res.error == own.res.error);
@@ -174,13 +128,13 @@ static void test_pilot_in_doubt_confirms_nothing(void **state)
     (void)state;
     /* a peak of width 1/400: the pilot's few hits raise its own flags */
     const double ga[] = {400, 400}, gu[] = {0.5, 0.5};
-    outcome o = run("genz-gaussian", 2, ga, gu, QMC_METHOD_MIDPOINT, 64, 0);
+    rule_outcome o = rule_run("genz-gaussian", 2, ga, gu, QMC_METHOD_MIDPOINT, 64, 0);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_true(o.res.flags & QMC_FLAG_UNRESOLVED);
     /* the step beyond every node and every pilot point: all values 1 */
     const double su[] = {0.999999999};
-    o = run("step", 1, NULL, su, QMC_METHOD_MIDPOINT, 4096, 0);
-    assert_false(covers(&o));
+    o = rule_run("step", 1, NULL, su, QMC_METHOD_MIDPOINT, 4096, 0);
+    assert_false(rule_covers(&o));
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
 }
 
@@ -189,7 +143,7 @@ static void test_tolerance_not_claimed(void **state)
     (void)state;
     /* cubature stops on 1e-8 relative; a pilot of thousands of points
      * cannot vouch for that, and a raised bar would break the tolerance */
-    outcome o = run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0, 0);
+    rule_outcome o = rule_run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0, 0);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_false(o.res.flags & QMC_FLAG_NOT_CONVERGED);
     assert_true(o.res.error <= 1e-8 * fabs(o.res.estimate));
@@ -199,12 +153,12 @@ static void test_no_pilot(void **state)
 {
     (void)state;
     /* a declared singularity is never confirmed: the rule's 195 only */
-    outcome o = run("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_LEGENDRE, 64, 0);
+    rule_outcome o = rule_run("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_LEGENDRE, 64, 0);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_int_equal(o.res.evals, tensor_evals(QMC_RULE1D_GAUSS_LEGENDRE, 64, 1));
     /* less than 16 x 16 evaluations left */
     const uint64_t rule = tensor_evals(QMC_RULE1D_GAUSS_LEGENDRE, 16, 3);
-    o = run("genz-continuous", 3, a3, u3, QMC_METHOD_GAUSS_LEGENDRE, 16, rule + 255);
+    o = rule_run("genz-continuous", 3, a3, u3, QMC_METHOD_GAUSS_LEGENDRE, 16, rule + 255);
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_int_equal(o.res.evals, rule);
     assert_int_equal(qmc__rule_pilot_evals(rule, 255), 0);
@@ -216,8 +170,8 @@ static void test_deterministic(void **state)
 {
     (void)state;
     const double a[] = {3, 2}, u[] = {0.3, 0.6};
-    outcome x = run("genz-discontinuous", 2, a, u, QMC_METHOD_SIMPSON, 65, 0);
-    outcome y = run("genz-discontinuous", 2, a, u, QMC_METHOD_SIMPSON, 65, 0);
+    rule_outcome x = rule_run("genz-discontinuous", 2, a, u, QMC_METHOD_SIMPSON, 65, 0);
+    rule_outcome y = rule_run("genz-discontinuous", 2, a, u, QMC_METHOD_SIMPSON, 65, 0);
     assert_true(test_same_result(&x.res, &y.res));
 }
 
@@ -233,7 +187,7 @@ static void test_cancelled_in_the_pilot(void **state)
     s.max_evals = rule; /* the rule alone: how often it polls */
     test_hook h;
     s.interrupt = test_hook_init(&h, 0, NULL);
-    outcome o = run_spec("genz-continuous", 3, a3, u3, &s);
+    rule_outcome o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
     assert_int_equal(o.err, 0);
     const uint64_t rule_calls = h.calls;
     s.max_evals = 0;
@@ -242,7 +196,7 @@ static void test_cancelled_in_the_pilot(void **state)
     s.n_axis = 16;
     s.n_given = 1;
     s.interrupt = test_hook_init(&h, rule_calls + 1, NULL);
-    o = run_spec("genz-continuous", 3, a3, u3, &s);
+    o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
     assert_int_equal(o.err, QMC_ECANCELED);
     assert_true(o.res.estimate == 0.0 && o.res.error == 0.0);
     assert_true(o.res.evals >= rule);
