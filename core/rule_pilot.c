@@ -15,17 +15,24 @@
  * integrand are too coarse a spread to check anything by. */
 #define PILOT_MIN_POINTS 16u
 
+/* A check, not a second integration: past this it costs time and memory
+ * (a daemon reserves the pilot's block sums for a rule's budget) for a bar
+ * that a rule of 8 million evaluations or more rarely needs from it. */
+#define PILOT_MAX_EVALS (UINT64_C(1) << 20)
+
 uint64_t qmc__rule_pilot_evals(uint64_t rule_evals, uint64_t left)
 {
     uint64_t want = rule_evals / 8;
     if (want < QMC_INTEGRATE_CONFIRM_EVALS)
         want = QMC_INTEGRATE_CONFIRM_EVALS;
+    if (want > PILOT_MAX_EVALS)
+        want = PILOT_MAX_EVALS;
     if (want > left)
         want = left;
     uint64_t m = PILOT_MIN_POINTS;
     if (want / QMC_INTEGRATE_PILOT_REPS < m)
         return 0;
-    while (2 * m <= want / QMC_INTEGRATE_PILOT_REPS && m < (UINT64_C(1) << 30))
+    while (2 * m <= want / QMC_INTEGRATE_PILOT_REPS)
         m *= 2;
     return m * QMC_INTEGRATE_PILOT_REPS;
 }

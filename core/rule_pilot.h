@@ -26,8 +26,8 @@
  * bar is below what the pilot can resolve stays flagged.
  *
  * Budget: at most what the rule left, and no more than the larger of
- * QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's evaluations;
- * nothing below QMC_INTEGRATE_PILOT_REPS x 16.  A caller that fits a rule
+ * QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's evaluations,
+ * nor 2^20; nothing below QMC_INTEGRATE_PILOT_REPS x 16.  A caller that fits a rule
  * to a budget keeps a sixteenth for it (client/cli/method_spec.c).  The
  * pilot's evaluations are added to the result's.  Its seed is the
  * request's sampling seed, so the result stays a pure function of the

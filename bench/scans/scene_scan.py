@@ -12,6 +12,9 @@ and judges each run against the scene reference the CLI prints
   silent   wrong, no flag at all
 and counts mis_undersampled (and any flag) on correct and wrong runs.
 Usage: scene_scan.py QMC [RUNS] [SEED] [N]   (SCAN_VERBOSE=1: print the silent runs)
+SCAN_METHODS=m1,m2 draws the method from that list instead (deterministic
+rules too: their --n is points an axis, SCAN_RULE_N, default 64), to
+measure what the rules' checks (rule_confirm.h, rule_pilot.h) leave.
 """
 import json, math, os, random, subprocess, sys, tempfile
 
@@ -20,6 +23,8 @@ runs = int(sys.argv[2]) if len(sys.argv) > 2 else 200
 seed = int(sys.argv[3]) if len(sys.argv) > 3 else 1
 n = sys.argv[4] if len(sys.argv) > 4 else "4096"
 rng = random.Random(seed)
+methods = os.environ.get("SCAN_METHODS", "mc,rqmc").split(",")
+rule_n = os.environ.get("SCAN_RULE_N", "64")
 
 
 def logu(a, b):
@@ -59,16 +64,19 @@ with tempfile.TemporaryDirectory() as tmp:
             f.write(scene())
         strategy = rng.choice(["uniform", "brdf", "light", "mis-balance", "mis-power", "mis-max"])
         beta = rng.choice(["0.05", "0.5", "2"])
-        method = rng.choice(["mc", "rqmc"])
+        method = rng.choice(methods)
+        n_run = n if method in ("mc", "rqmc", "lhs", "stratified") else rule_n
         p = subprocess.run([qmc, "integrate", "--scene", path, "--strategy", strategy,
-                            "--beta", beta, "--method", method, "--n", n,
+                            "--beta", beta, "--method", method, "--n", n_run,
                             "--seed", str(1000 + done), "--json"],
                            capture_output=True, text=True)
         if p.returncode != 0:
             continue  # a scene the parser refuses (light below the horizon...)
         done += 1
         r = json.loads(p.stdout)
-        ref, est, bar = r["reference"], r["estimate"], r["stderr"]
+        ref = r["reference"] if r.get("reference") is not None else r["exact"]
+        est = r["estimate"]
+        bar = r["stderr"] if r.get("stderr") is not None else r.get("error_estimate")
         ok = bar is not None and abs(est - ref) <= 3 * bar + 1e-9 * abs(ref)
         side = "correct" if ok else "wrong"
         counts[side] += 1

@@ -60,7 +60,7 @@ typedef enum qmc_method {
  * coarse level) is checked by an RQMC pilot of this many Owen-scrambled
  * Sobol replicates, run on what the rule left of the budget: at most the
  * larger of QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's
- * evaluations, at least 16 points a replicate.  The flag is cleared when
+ * evaluations (never more than 2^20), at least 16 points a replicate.  The flag is cleared when
  * the pilot, flagless itself, puts the truth within two bars of the rule's
  * estimate (docs/FLAGS.md); `unresolved` stays.  A declared singularity is
  * never confirmed. */

@@ -164,6 +164,7 @@ static void test_no_pilot(void **state)
     assert_int_equal(qmc__rule_pilot_evals(rule, 255), 0);
     assert_int_equal(qmc__rule_pilot_evals(rule, 256), 256);
     assert_int_equal(qmc__rule_pilot_evals(1000000, 1u << 30), 65536); /* an eighth, 2^k */
+    assert_int_equal(qmc__rule_pilot_evals(UINT64_C(1) << 40, UINT64_C(1) << 40), 1u << 20);
 }
 
 static void test_deterministic(void **state)
