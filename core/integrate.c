@@ -721,7 +721,8 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
     if (err)
         return err;
     rep->res.flags |= qmc__rule_evidence_flags(&rep->res, &nodes);
-    rep->res.flags |= qmc__rule_smoothness_flags(&s, f, &rep->res);
+    int refuted;
+    rep->res.flags |= qmc__rule_smoothness_flags(&s, f, &rep->res, &refuted);
     /* auto chose the rule on what f declares, and the rule cannot see what
      * its nodes missed: more work, not a flag, while the budget lasts -
      * RQMC with what is left, whose points land between any grid's nodes
@@ -735,9 +736,10 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
                         !(rep->res.flags & QMC_FLAG_NONFINITE) && spent <= spec->max_evals / 2 &&
                         spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16;
     /* A bar still in doubt, kept: checked by points off every node of the
-     * rule (rule_pilot.h).  Not when auto is about to replace it. */
+     * rule (rule_pilot.h).  Not when auto is about to replace it, nor
+     * when Gauss-Kronrod has shown it wrong. */
     if (!to_rqmc)
-        return qmc__rule_pilot(&s, f, &rep->res, why, why_bytes);
+        return refuted ? 0 : qmc__rule_pilot(&s, f, &rep->res, why, why_bytes);
     reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
                   " nodes left the integrand unresolved (levels agreeing near zero): "
                   "rqmc with the rest of the budget");

@@ -140,9 +140,9 @@ static uint64_t rule_bytes(const qmc_integrate_spec *spec, uint32_t dims, qmc_me
 
 /* A rule's workspace, or the RQMC pilot that may check its bar after it
  * is freed (rule_pilot.h). */
-static uint64_t checked_rule_bytes(const qmc_integrate_spec *spec, uint64_t rule)
+static uint64_t checked_rule_bytes(const qmc_integrate_spec *spec, uint32_t dims, uint64_t rule)
 {
-    return max_u64(rule, qmc__rule_pilot_bytes(spec->max_evals));
+    return max_u64(rule, qmc__rule_pilot_bytes(spec->max_evals, dims));
 }
 
 uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qmc_integrand *f,
@@ -154,7 +154,7 @@ uint64_t qmc_integrate_memory_bytes_for(const qmc_integrate_spec *spec, const qm
      * own choice), then possibly RQMC, directly or after the rule; a map
      * only without a control variate and without jumps (auto_map). */
     uint64_t rule =
-        checked_rule_bytes(spec, rule_bytes(spec, f->dims, qmc__auto_pick(spec, f, g)));
+        checked_rule_bytes(spec, f->dims, rule_bytes(spec, f->dims, qmc__auto_pick(spec, f, g)));
     int may_map = !g && f->smoothness < QMC_SMOOTH_DISCONTINUOUS;
     return max_u64(rule, auto_rqmc_bytes(spec, f->dims, may_map, g != NULL));
 }
@@ -166,23 +166,23 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
     qmc_quad_gk_opts_init(&g);
     switch (spec->method) {
     case QMC_METHOD_GAUSS_KRONROD:
-        return checked_rule_bytes(spec, qmc_quad_gk_workspace_bytes(g.max_subdiv));
+        return checked_rule_bytes(spec, dims, qmc_quad_gk_workspace_bytes(g.max_subdiv));
     case QMC_METHOD_CUBATURE:
-        return checked_rule_bytes(spec, qmc__cubature_bytes(spec, dims, 0));
+        return checked_rule_bytes(spec, dims, qmc__cubature_bytes(spec, dims, 0));
     case QMC_METHOD_CLENSHAW_CURTIS:
-        return checked_rule_bytes(spec, qmc__cubature_bytes(spec, dims, 1));
+        return checked_rule_bytes(spec, dims, qmc__cubature_bytes(spec, dims, 1));
     case QMC_METHOD_MIDPOINT:
         return checked_rule_bytes(
-            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, dims));
+            spec, dims, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_MIDPOINT, n, dims));
     case QMC_METHOD_TRAPEZOID:
         return checked_rule_bytes(
-            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_TRAPEZOID, n, dims));
+            spec, dims, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_TRAPEZOID, n, dims));
     case QMC_METHOD_SIMPSON:
         return checked_rule_bytes(
-            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_SIMPSON, n, dims));
+            spec, dims, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_SIMPSON, n, dims));
     case QMC_METHOD_GAUSS_LEGENDRE:
         return checked_rule_bytes(
-            spec, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims));
+            spec, dims, qmc_quad_tensor_rule_workspace_bytes(QMC_RULE1D_GAUSS_LEGENDRE, n, dims));
     case QMC_METHOD_AUTO: {
         /* Whichever rule it may pick for these dims and budget (each
          * allocates exactly its workspace: cubature's regions and the
@@ -198,7 +198,7 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
                 rule = max_u64(rule, rule_bytes(spec, dims, rules[i]));
         /* Without the integrand: its RQMC with no control variate (the
          * longer rounds) and a map. */
-        return max_u64(checked_rule_bytes(spec, rule), auto_rqmc_bytes(spec, dims, 1, 0));
+        return max_u64(checked_rule_bytes(spec, dims, rule), auto_rqmc_bytes(spec, dims, 1, 0));
     }
     default:
         return sampling_bytes(spec);

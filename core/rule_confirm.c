@@ -11,7 +11,9 @@
 #include "rule_confirm.h"
 #include "qmc/quad.h"
 
-/* Gauss-Kronrod from the declared breaks, within `left` evaluations. */
+/* Gauss-Kronrod from the declared breaks, within `left` evaluations: 1
+ * when it confirms the bar, -1 when it refutes it (GK ran clean and
+ * disagrees), 0 when it cannot tell. */
 static int gk_confirms(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,
                        uint64_t left)
 {
@@ -39,12 +41,13 @@ static int gk_confirms(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_
                            QMC_FLAG_MAX_SUBDIV | QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
     if ((r.flags & doubt) || !isfinite(r.estimate) || !isfinite(r.error))
         return 0;
-    return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack;
+    return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack ? 1 : -1;
 }
 
 uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integrand *f,
-                                    qmc_result *res)
+                                    qmc_result *res, int *refuted)
 {
+    *refuted = 0;
     if (f->smoothness < QMC_SMOOTH_CONTINUOUS || s->method == QMC_METHOD_GAUSS_KRONROD)
         return 0;
     const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE;
@@ -54,5 +57,7 @@ uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integ
     if (!qmc__gk_breaks_usable(f))
         return doubt;
     uint64_t left = s->max_evals > res->evals ? s->max_evals - res->evals : 0;
-    return gk_confirms(s, f, res, left) ? 0 : doubt;
+    const int verdict = gk_confirms(s, f, res, left);
+    *refuted = verdict < 0;
+    return verdict > 0 ? 0 : doubt;
 }

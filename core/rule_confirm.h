@@ -37,9 +37,11 @@
 
 /* The flags the declared smoothness adds to rule s->method's finished
  * result res on f (QMC_FLAG_ERROR_UNRELIABLE or 0); adds the check's
- * evaluations to res->evals.  f is the integrand itself, not a watched
- * view: the check's nodes are not the rule's. */
+ * evaluations to res->evals.  *refuted is 1 when Gauss-Kronrod ran clean
+ * and disagrees with the bar: then nothing may vouch for it later
+ * (rule_pilot.h).  f is the integrand itself, not a watched view: the
+ * check's nodes are not the rule's. */
 uint32_t qmc__rule_smoothness_flags(const qmc_integrate_spec *s, const qmc_integrand *f,
-                                    qmc_result *res);
+                                    qmc_result *res, int *refuted);
 
 #endif

@@ -1,5 +1,5 @@
 /*
- * rule_pilot.c - a rule's doubtful bar checked by an RQMC pilot whose
+ * rule_pilot.c - a rule's doubtful bar checked by a randomized pilot whose
  * points share none of the rule's nodes (see rule_pilot.h for the rule,
  * the budget and what it must not do).
  */
@@ -8,6 +8,8 @@
 
 #include "interrupt.h"
 #include "msg.h"
+#include "rule_evidence.h"
+#include "sampling_impl.h"
 #include "rule_pilot.h"
 #include "qmc/sampling.h"
 
@@ -37,11 +39,51 @@ uint64_t qmc__rule_pilot_evals(uint64_t rule_evals, uint64_t left)
     return m * QMC_INTEGRATE_PILOT_REPS;
 }
 
-uint64_t qmc__rule_pilot_bytes(uint64_t max_evals)
+/* The pilot of `evals` evaluations for a rule run by s on an integrand
+ * of this smoothness.  Across a jump a scrambled net's replicates are a
+ * poor witness: an axis-aligned jump cuts one stratum of each 1D
+ * projection, so a replicate's error is nearly two-valued, and 16
+ * replicates that all drew the common value agree on a biased mean
+ * (genz-discontinuous, d = 1, u = 0.98410, 16 x 128 points: 6.8 standard
+ * errors off).  Independent points have no strata to cut: plain MC, whose
+ * bar is the CLT's over all of them.  Only an integrand declared analytic
+ * gets the scrambled net: one declared to have kinks may be an unknown f
+ * (the CLI's default for --command) with jumps it never declared. */
+static void pilot_spec(const qmc_integrate_spec *s, qmc_smoothness smoothness, uint64_t evals,
+                       qmc_integrate_spec *p)
 {
-    const uint64_t m = qmc__rule_pilot_evals(max_evals, max_evals) / QMC_INTEGRATE_PILOT_REPS;
+    const int mc = smoothness != QMC_SMOOTH_ANALYTIC;
+    qmc_integrate_spec_init(p);
+    p->method = mc ? QMC_METHOD_MC : QMC_METHOD_RQMC;
+    qmc_sampling_spec_init(&p->sampling, mc ? QMC_SAMPLER_MC : QMC_SAMPLER_RQMC);
+    p->sampling.seed = s->sampling.seed;
+    p->sampling.reps = mc ? 1 : QMC_INTEGRATE_PILOT_REPS;
+    p->sampling.n = mc ? evals : evals / QMC_INTEGRATE_PILOT_REPS;
+    p->n_given = 1;
+    p->max_evals = evals;
+    p->max_memory = s->max_memory;
+    p->interrupt = s->interrupt;
+}
+
+uint64_t qmc__rule_pilot_bytes(uint64_t max_evals, uint32_t dims)
+{
+    const uint64_t evals = qmc__rule_pilot_evals(max_evals, max_evals);
+    if (evals == 0)
+        return 0;
+    /* Block sums: 16 replicates of m points, or one sample of 16 m (no
+     * more blocks); the serial workspace (the pilot runs without the
+     * caller's runner); the job and its sequences, for either kind. */
+    const uint64_t m = evals / QMC_INTEGRATE_PILOT_REPS;
     const uint64_t per_rep = m / QMC_SAMPLING_BLOCK + (m % QMC_SAMPLING_BLOCK != 0);
-    return per_rep * QMC_INTEGRATE_PILOT_REPS * sizeof(qmc_sampling_sums);
+    uint64_t bytes = per_rep * QMC_INTEGRATE_PILOT_REPS * sizeof(qmc_sampling_sums);
+    bytes += qmc__sampling_workspace_bytes_for(dims);
+    qmc_integrate_spec rule, net, mc;
+    qmc_integrate_spec_init(&rule);
+    pilot_spec(&rule, QMC_SMOOTH_ANALYTIC, evals, &net);
+    pilot_spec(&rule, QMC_SMOOTH_DISCONTINUOUS, evals, &mc);
+    const uint64_t jn = qmc__sampling_job_bytes(&net.sampling, dims),
+                   jm = qmc__sampling_job_bytes(&mc.sampling, dims);
+    return bytes + (jn > jm ? jn : jm);
 }
 
 /* Whether the bar may be raised to `bar`: a rule that stopped on a
@@ -78,25 +120,9 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
     const uint64_t evals = qmc__rule_pilot_evals(res->evals, left);
     if (evals == 0)
         return 0;
-    /* Across a jump a scrambled net's replicates are a poor witness: an
-     * axis-aligned jump cuts one stratum of each 1D projection, so a
-     * replicate's error is nearly two-valued, and 16 replicates that all
-     * drew the common value agree on a biased mean (genz-discontinuous, d
-     * = 1, u = 0.98410, 16 x 128 points: 6.8 standard errors off).
-     * Independent points have no strata to cut: plain MC, whose bar is
-     * the CLT's over all of them. */
-    const int jumps = f->smoothness >= QMC_SMOOTH_DISCONTINUOUS;
     qmc_integrate_spec p;
-    qmc_integrate_spec_init(&p);
-    p.method = jumps ? QMC_METHOD_MC : QMC_METHOD_RQMC;
-    qmc_sampling_spec_init(&p.sampling, jumps ? QMC_SAMPLER_MC : QMC_SAMPLER_RQMC);
-    p.sampling.seed = s->sampling.seed;
-    p.sampling.reps = jumps ? 1 : QMC_INTEGRATE_PILOT_REPS;
-    p.sampling.n = jumps ? evals : evals / QMC_INTEGRATE_PILOT_REPS;
-    p.n_given = 1;
-    p.max_evals = evals;
-    p.max_memory = s->max_memory;
-    p.interrupt = s->interrupt;
+    pilot_spec(s, f->smoothness, evals, &p);
+    const int mc = p.method == QMC_METHOD_MC;
     qmc_integrate_report rep;
     char pwhy[160];
     int err = qmc_integrate(&p, f, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
@@ -112,7 +138,7 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
     if (err || r->flags != 0 || r->error_kind != QMC_ERROR_STDERR || !isfinite(r->estimate) ||
         !isfinite(r->error))
         return 0; /* too many dims for Sobol, or a pilot in doubt itself */
-    const double df = jumps ? (double)evals - 1.0 : (double)(QMC_INTEGRATE_PILOT_REPS - 1);
+    const double df = mc ? (double)evals - 1.0 : (double)(QMC_INTEGRATE_PILOT_REPS - 1);
     const double t = qmc_student_t_quantile(0.99, df);
     const double scale = fmax(fabs(res->estimate), res->abs_integral);
     const double slack = 32.0 * DBL_EPSILON * scale;
@@ -131,6 +157,10 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
     res->error = bar;
     res->ci_low = res->estimate - bar;
     res->ci_high = res->estimate + bar;
+    /* A bar raised to a tenth of the mass or more says the rule did not
+     * resolve the integrand, as rule_evidence.h's test would have. */
+    if (!(bar < QMC__UNRESOLVED_SHARE * fmax(fabs(res->estimate), res->abs_integral)))
+        res->flags |= QMC_FLAG_UNRESOLVED;
     *clear = QMC_FLAG_ERROR_UNRELIABLE;
     return 0;
 }

@@ -8,33 +8,41 @@
  * not confirm (rule_confirm.h), a rule that does not resolve the integrand
  * (rule_evidence.h, a tensor rule's marginals, cubature's suspects), a rule
  * with no coarse level - the result carries error_unreliable.  Issue 23's
- * remedy is evidence from elsewhere: QMC_INTEGRATE_PILOT_REPS
- * Owen-scrambled Sobol replicates of m points each (m a power of two, at
- * least 16), run through qmc_integrate as rqmc so that every piece of
- * sampling evidence (heavy_tail, few_nonzero, zero_spread, tail_untested,
- * nonfinite) and the integrand's audit (a scene's mis_undersampled and
- * zero_pdf) judges the pilot too.
+ * remedy is evidence from elsewhere: a pilot run through qmc_integrate, so
+ * that every piece of sampling evidence (heavy_tail, few_nonzero,
+ * zero_spread, tail_untested, nonfinite) and the integrand's audit (a
+ * scene's mis_undersampled and zero_pdf) judges the pilot too.  On an
+ * integrand declared analytic it is QMC_INTEGRATE_PILOT_REPS Owen-scrambled
+ * Sobol replicates of m points (m a power of two, at least 16); on any
+ * other, plain MC of as many points (rule_pilot.c says why).
  *
- * The pilot confirms the rule's bar b when it carries no flag at all and
- *     |rule - pilot| + t se  <=  2 b + 32 ulps of the integral of |f|,
- * t the two-sided 99% Student-t quantile on reps - 1 degrees of freedom:
- * whenever the pilot's interval holds, the truth then lies within 2 bars
- * of the rule's estimate (the stability matrix's yardstick is 3).  The
- * same form as Gauss-Kronrod's confirmation, with the pilot's 99% interval
- * in place of GK's bar.  A pilot that saw too little (a peak it missed, a
- * tiny light) carries a flag of its own and confirms nothing; a rule whose
- * bar is below what the pilot can resolve stays flagged.
+ * With the pilot's estimate P, its standard error se and t the two-sided
+ * 99% Student-t quantile:
+ *  - |rule - P| + t se <= 2 b + 32 ulps of the integral of |f|: the bar b
+ *    stands, and the flag goes (whenever the pilot's interval holds, the
+ *    truth lies within 2 bars; the stability matrix's yardstick is 3);
+ *  - else |rule - P| <= t se: the pilot agrees within its own noise, which
+ *    is coarser than the rule's claim; the bar is raised to (|rule - P| +
+ *    t se) / 2, the same guarantee at the pilot's resolution, and the flag
+ *    goes - for a tensor grid, or for an adaptive rule while the raised
+ *    bar still meets the tolerance it stopped on (never claim a tolerance
+ *    the evidence does not support); a raised bar of a tenth of the mass
+ *    or more is `unresolved`, as rule_evidence.h would have it;
+ *  - else bar and flag stay.
+ * A pilot that carries any flag of its own (a peak it hit a few times, a
+ * tiny light) vouches for nothing.
  *
  * Budget: at most what the rule left, and no more than the larger of
  * QMC_INTEGRATE_CONFIRM_EVALS and an eighth of the rule's evaluations,
- * nor 2^20; nothing below QMC_INTEGRATE_PILOT_REPS x 16.  A caller that fits a rule
- * to a budget keeps a sixteenth for it (client/cli/method_spec.c).  The
- * pilot's evaluations are added to the result's.  Its seed is the
- * request's sampling seed, so the result stays a pure function of the
- * request.
+ * nor 2^20, rounded down to 16 x a power of two; nothing below
+ * QMC_INTEGRATE_PILOT_REPS x 16.  A caller that fits a rule to a budget
+ * keeps a sixteenth for it (client/cli/method_spec.c).  The pilot's
+ * evaluations are added to the result's.  Its seed is the request's
+ * sampling seed, so the result stays a pure function of the request.
  *
- * Not for: a declared singularity (never confirmed), nonfinite results.
- * Must not: change the estimate or the bar; clear any flag but
+ * Not for: a declared singularity (never confirmed), nonfinite results, a
+ * bar Gauss-Kronrod refuted (the caller skips the pilot then).
+ * Must not: change the estimate; lower the bar; clear any flag but
  * error_unreliable (unresolved stays, to say the rule did not resolve).
  */
 #ifndef QMC_RULE_PILOT_H
@@ -49,8 +57,9 @@
  * QMC_FLAG_ERROR_UNRELIABLE (and may raise the bar) when a pilot vouches
  * for it, and adds the pilot's evaluations to res->evals.  0, or
  * QMC_ECANCELED when s->interrupt stopped the pilot: res is then the
- * cancelled result (estimate and bar 0, its evaluations kept) and why
- * says so. */
+ * cancelled result (estimate and bar 0; the rule's evaluations kept, the
+ * cut-short pilot's not counted, as a cancelled sampling run reports
+ * none) and why says so. */
 int qmc__rule_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,
                     char *why, size_t why_bytes);
 
@@ -58,8 +67,9 @@ int qmc__rule_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_res
  * left `left` (0: none fits). */
 uint64_t qmc__rule_pilot_evals(uint64_t rule_evals, uint64_t left);
 
-/* An upper bound on the block sums of any pilot within max_evals (the
- * rule's workspace is freed before the pilot runs; integrate_memory.c). */
-uint64_t qmc__rule_pilot_bytes(uint64_t max_evals);
+/* An upper bound on what any pilot within max_evals allocates on dims
+ * dimensions (the rule's workspace is freed before the pilot runs;
+ * integrate_memory.c). */
+uint64_t qmc__rule_pilot_bytes(uint64_t max_evals, uint32_t dims);
 
 #endif

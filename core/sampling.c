@@ -21,6 +21,7 @@
 #include "hot_clones.h"
 #include "neumaier.h"
 #include "sampling_impl.h"
+#include "seq_impl.h"
 
 enum {
     TAG_REPLICATE = 0x72657073, /* "reps" */
@@ -228,6 +229,16 @@ size_t qmc__sampling_workspace_bytes_for(uint32_t dims)
     /* points, then f values, then g values (room for them with or
      * without a control variate) */
     return (chunk * dims + 2 * chunk) * sizeof(double);
+}
+
+uint64_t qmc__sampling_job_bytes(const qmc_sampling_spec *spec, uint32_t dims)
+{
+    uint64_t bytes = sizeof(qmc_sampling_job) + (uint64_t)spec->reps * sizeof(qmc_seq *);
+    for (uint32_t r = 0; r < spec->reps; r++) {
+        qmc_seq_spec q = replicate_seq(spec, dims, r);
+        bytes += qmc__seq_bytes(&q);
+    }
+    return bytes;
 }
 
 size_t qmc_sampling_workspace_bytes(const qmc_sampling_job *job)

@@ -22,6 +22,10 @@ struct qmc_sampling_job {
 uint32_t qmc__sampling_chunk(uint32_t dims);
 size_t qmc__sampling_workspace_bytes_for(uint32_t dims);
 
+/* What qmc_sampling_job_new allocates for spec on dims, besides the block
+ * sums the caller brings: the job and its replicates' sequences. */
+uint64_t qmc__sampling_job_bytes(const qmc_sampling_spec *spec, uint32_t dims);
+
 /* The points of block `block` (at most QMC_SAMPLING_BLOCK; the last block
  * of a replicate holds what is left of n). */
 uint64_t qmc__sampling_block_points(const qmc_sampling_job *job, uint64_t block);

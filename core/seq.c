@@ -110,6 +110,14 @@ int qmc_seq_spec_check(const qmc_seq_spec *spec, char *why, size_t why_bytes)
     return ops->check(spec, &m);
 }
 
+size_t qmc__seq_bytes(const qmc_seq_spec *spec)
+{
+    if (qmc_seq_spec_check(spec, NULL, 0) != 0)
+        return 0;
+    size_t head = (sizeof(qmc_seq) + 63) & ~(size_t)63;
+    return (head + kind_ops(spec->kind)->table_bytes(spec) + 63) & ~(size_t)63;
+}
+
 int qmc_seq_new(const qmc_seq_spec *spec, qmc_seq **out)
 {
     *out = NULL;

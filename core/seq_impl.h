@@ -39,6 +39,9 @@ struct qmc_seq {
     void *tables;   /* kind-owned, allocated with the instance */
 };
 
+/* What qmc_seq_new allocates for spec (0 for a spec it refuses). */
+size_t qmc__seq_bytes(const qmc_seq_spec *spec);
+
 extern const qmc__seq_ops qmc__seq_sobol;
 extern const qmc__seq_ops qmc__seq_halton;
 extern const qmc__seq_ops qmc__seq_hammersley;
