@@ -20,7 +20,8 @@
  *   a narrow peak; a step at 1 - 1e-9              flagged (the pilot itself
  *                                                    carries a flag)
  *   a 1D jump GK from the break refutes            flagged, no pilot run
- *   cubature on the kink, default tolerance 1e-8   flagged, bar as it was
+ *   cubature on the kink, default tolerance 1e-8   flagged, bar as it was;
+ *                                                    only the 256-point probe
  *   x^-1/2 by Gauss-Legendre                       flagged, no pilot run
  *   too little budget left                         flagged, no pilot run
  *   the same request twice                         the same bits
@@ -185,6 +186,13 @@ static void test_tolerance_not_claimed(void **state)
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     assert_false(o.res.flags & QMC_FLAG_NOT_CONVERGED);
     assert_true(o.res.error <= 1e-8 * fabs(o.res.estimate));
+    /* a 256-point probe showed the pilot hopeless, so only the probe
+     * ran: the same run with 256 evaluations less has no room for it */
+    rule_outcome own = rule_run("genz-continuous", 3, a3, u3, QMC_METHOD_CUBATURE, 0,
+                                o.res.evals - 256);
+    assert_int_equal(own.res.evals, o.res.evals - 256);
+    assert_true(own.res.estimate == o.res.estimate && own.res.error == o.res.error &&
+                own.res.flags == o.res.flags);
 }
 
 static void test_no_pilot(void **state)
