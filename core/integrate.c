@@ -226,7 +226,7 @@ static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f, 
     qmc_cubature_opts c = {.tol_abs = spec->tol_abs, .tol_rel = spec->tol_rel,
                            .max_evals = spec->max_evals, .interrupt = spec->interrupt};
     if (c.tol_abs == 0 && c.tol_rel == 0)
-        c.tol_rel = 1e-8;
+        c.tol_rel = QMC__CUBATURE_TOL_REL;
     /* integrate_memory.c bounds a call by the same function. */
     size_t bytes = qmc__cubature_bytes(spec, f->dims, cc);
     void *ws = malloc(bytes ? bytes : 1);

@@ -11,6 +11,7 @@
 #include "rule_evidence.h"
 #include "sampling_impl.h"
 #include "rule_pilot.h"
+#include "qmc/quad.h"
 #include "qmc/sampling.h"
 
 /* Below this many points a replicate, 16 replicate means of a bounded
@@ -88,7 +89,7 @@ uint64_t qmc__rule_pilot_bytes(uint64_t max_evals, uint32_t dims)
 
 /* The tolerance rule s stopped on: the caller's, else cubature's and
  * Clenshaw-Curtis's 1e-8 and Gauss-Kronrod's 1e-10 relative (integrate.c,
- * quad_gk.c); INFINITY for a tensor grid, which has none.  A raised bar
+ * qmc_quad_gk_opts_init); INFINITY for a tensor grid, which has none.  A raised bar
  * must still meet it: an adaptive rule never claims a tolerance the
  * evidence does not support, so it keeps its bar and its flag instead (a
  * session still ends cannot_tell). */
@@ -96,12 +97,16 @@ static double rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
 {
     double tol_abs = s->tol_abs, tol_rel = s->tol_rel;
     if (tol_abs == 0.0 && tol_rel == 0.0) {
-        if (s->method == QMC_METHOD_CUBATURE || s->method == QMC_METHOD_CLENSHAW_CURTIS)
-            tol_rel = 1e-8;
-        else if (s->method == QMC_METHOD_GAUSS_KRONROD)
-            tol_rel = 1e-10;
-        else
+        if (s->method == QMC_METHOD_CUBATURE || s->method == QMC_METHOD_CLENSHAW_CURTIS) {
+            tol_rel = QMC__CUBATURE_TOL_REL;
+        } else if (s->method == QMC_METHOD_GAUSS_KRONROD) {
+            qmc_quad_gk_opts g;
+            qmc_quad_gk_opts_init(&g);
+            tol_abs = g.tol_abs;
+            tol_rel = g.tol_rel;
+        } else {
             return INFINITY;
+        }
     }
     return fmax(tol_abs, tol_rel * fabs(res->estimate));
 }
@@ -176,14 +181,12 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
         return 0;
     const double tol = rule_tolerance(s, res);
     if (isfinite(tol) && evals >= 2 * PROBE_EVALS) {
-        const uint64_t rule_evals = res->evals;
-        int hopeless = probe_hopeless(s, f, qmc__rule_pilot_evals(rule_evals, left - PROBE_EVALS),
-                                      2.0 * fmax(res->error, tol), res, why, why_bytes);
+        /* the pilot after the probe: at least PROBE_EVALS are left for it */
+        evals = qmc__rule_pilot_evals(res->evals, left - PROBE_EVALS);
+        int hopeless =
+            probe_hopeless(s, f, evals, 2.0 * fmax(res->error, tol), res, why, why_bytes);
         if (hopeless)
             return hopeless == QMC_ECANCELED ? QMC_ECANCELED : 0;
-        evals = qmc__rule_pilot_evals(rule_evals, left - PROBE_EVALS);
-        if (evals == 0)
-            return 0;
     }
     qmc_result r;
     double t;

@@ -53,6 +53,10 @@
 
 #include "qmc/result.h"
 
+/* The relative tolerance cubature and Clenshaw-Curtis stop on when the
+ * caller gives none (integrate.c); a raised bar must still meet it. */
+#define QMC__CUBATURE_TOL_REL 1e-8
+
 /* Checks the bar of rule s->method's finished result res on f: clears
  * QMC_FLAG_ERROR_UNRELIABLE (and may raise the bar) when a pilot vouches
  * for it, and adds the pilot's evaluations to res->evals.  0, or

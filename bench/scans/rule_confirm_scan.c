@@ -36,15 +36,7 @@
 #include "qmc/integrate.h"
 #include "qmc/testfn.h"
 
-static uint64_t state;
-
-static double u01(void)
-{
-    state ^= state << 13;
-    state ^= state >> 7;
-    state ^= state << 17;
-    return (double)(state >> 11) * 0x1p-53;
-}
+#include "scan_rng.h"
 
 static int judge(const char *fam, uint32_t d, const double *a, const double *u, qmc_method m,
                  uint32_t n, qmc_result *out, double *truth)

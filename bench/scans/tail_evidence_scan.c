@@ -26,15 +26,7 @@
 #include "qmc/sampling.h"
 #include "qmc/testfn.h"
 
-static uint64_t state;
-
-static double u01(void)
-{
-    state ^= state << 13;
-    state ^= state >> 7;
-    state ^= state << 17;
-    return (double)(state >> 11) * 0x1p-53;
-}
+#include "scan_rng.h"
 
 /* error_unreliable from the evidence alone, given the block statistic */
 static int judged(const double *top, uint64_t n, double rse)
