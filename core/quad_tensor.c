@@ -313,19 +313,31 @@ static void rounding_probe(const qmc_integrand *f, const double *w, uint32_t n,
         }
     f->eval(f->ctx, x, 2 * k, d, t->pf);
     *evals += 2 * k;
-    double ms = 0.0;
+    /* The differences' root mean square, squared at the scale of the
+     * largest: a power of two, so the sum is the unscaled one's exactly,
+     * but neither squares of 2^1000 nor of 2^-1000 leave the doubles (an
+     * integrand times 2^1000 gave a floor of inf: bar inf, roundoff). */
+    double big = 0.0;
     for (uint32_t i = 0; i < 2 * k; i++)
         if (!isfinite(t->pf[i]))
             (*nonfinite)++;
     for (uint32_t i = 0; i < k; i++) {
-        double diff = t->pf[k + i] - t->pf[i];
+        double diff = fabs(t->pf[k + i] - t->pf[i]);
+        if (isfinite(diff) && diff > big)
+            big = diff;
+    }
+    const int e = big > 0.0 ? ilogb(big) : 0;
+    double ms = 0.0;
+    for (uint32_t i = 0; i < k; i++) {
+        double diff = ldexp(t->pf[k + i] - t->pf[i], -e);
         ms += isfinite(diff) ? diff * diff : 0.0;
     }
     /* sqrt(sum of w^2) of the product rule: the 1D one to the d-th */
     double wsq = 0.0;
     for (uint32_t i = 0; i < n; i++)
         wsq += w[i] * w[i];
-    out->round_floor = TENSOR_ROUND_FACTOR * sqrt(ms / k) * pow(sqrt(wsq), (double)d);
+    out->round_floor =
+        TENSOR_ROUND_FACTOR * ldexp(sqrt(ms / k), e) * pow(sqrt(wsq), (double)d);
 }
 
 /* Siblings and probes within `left` evaluations, nodes in xs, ws (room for

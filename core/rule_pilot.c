@@ -111,18 +111,85 @@ static double rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
     return fmax(tol_abs, tol_rel * fabs(res->estimate));
 }
 
-/* One pilot of `evals` evaluations: 0 with *r and *t (its result and the
- * 99% quantile for its bar), QMC_ECANCELED with why set, or 1 when it
- * failed to run (too many dims for Sobol, memory).  Its evaluations are
- * added to res's. */
+/*
+ * The pilot sees f scaled by 2^-e, e the binary exponent of the rule's
+ * integral, when that lies beyond 2^+-SCALE_PAST: a radiance of 1e308
+ * (overflow-light) overflowed the pilot's sums of values and of squares,
+ * so its own nonfinite flag vouched for nothing, while the rule's sums
+ * held.  Scaling by a power of two is exact, and so is every sum, mean and
+ * spread of the scaled values, short of underflow: the pilot's result,
+ * scaled back, is the one it would have given with room for its sums.
+ * The integrand's audit sees the result scaled back.
+ */
+#define SCALE_PAST 128
+
+typedef struct scaled_integrand {
+    const qmc_integrand *f;
+    int e;          /* f's values are multiplied by 2^-e */
+    double factor;  /* 2^-e, exact */
+} scaled_integrand;
+
+static void scaled_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
+{
+    const scaled_integrand *s = ctx;
+    s->f->eval(s->f->ctx, x, n, dims, out);
+    for (size_t i = 0; i < n; i++)
+        out[i] *= s->factor;
+}
+
+/* res's values in f's own units: every quantity measured in them scaled
+ * by 2^e (the standard error too; counts and flags are unchanged). */
+static void unscale_result(qmc_result *r, int e)
+{
+    r->estimate = ldexp(r->estimate, e);
+    r->error = ldexp(r->error, e);
+    r->ci_low = ldexp(r->ci_low, e);
+    r->ci_high = ldexp(r->ci_high, e);
+    r->abs_integral = ldexp(r->abs_integral, e);
+}
+
+static uint32_t scaled_audit(const void *ctx, const qmc_result *res)
+{
+    const scaled_integrand *s = ctx;
+    qmc_result r = *res;
+    unscale_result(&r, s->e);
+    return s->f->audit(s->f->ctx, &r);
+}
+
+/* The exponent to scale f by for a rule result of this size (0: none). */
+static int pilot_scale_exponent(const qmc_result *res)
+{
+    const double size = fmax(fabs(res->estimate), res->abs_integral);
+    if (!(size > 0.0) || !isfinite(size))
+        return 0;
+    const int e = ilogb(size);
+    return e > SCALE_PAST || e < -SCALE_PAST ? e : 0;
+}
+
+/* One pilot of `evals` evaluations: 0 with *r and *t (its result, in f's
+ * units, and the 99% quantile for its bar), QMC_ECANCELED with why set,
+ * or 1 when it failed to run (too many dims for Sobol, memory).  Its
+ * evaluations are added to res's. */
 static int run_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, uint64_t evals,
                      qmc_result *res, char *why, size_t why_bytes, qmc_result *r, double *t)
 {
     qmc_integrate_spec p;
     pilot_spec(s, f->smoothness, evals, &p);
+    const int e = pilot_scale_exponent(res);
+    scaled_integrand sf = {f, e, ldexp(1.0, -e)};
+    qmc_integrand g = *f;
+    if (e != 0) {
+        g.eval = scaled_eval;
+        g.ctx = &sf;
+        g.exact = ldexp(f->exact, -e);
+        g.abs_integral = ldexp(f->abs_integral, -e);
+        g.audit = f->audit ? scaled_audit : NULL;
+    }
     qmc_integrate_report rep;
     char pwhy[160];
-    int err = qmc_integrate(&p, f, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
+    int err = qmc_integrate(&p, &g, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
+    if (e != 0)
+        unscale_result(&rep.res, e);
     res->evals += rep.res.evals;
     if (err == QMC_ECANCELED) {
         qmc__msg m;

@@ -13,8 +13,22 @@
 #include "rule_run.h"
 #include "qmc/testfn.h"
 
-rule_outcome rule_run_spec(const char *name, uint32_t dims, const double *a, const double *u,
-                           const qmc_integrate_spec *s)
+/* f times 2^e (rule_run_spec_scaled). */
+typedef struct scaled_fn {
+    const qmc_integrand *f;
+    double factor;
+} scaled_fn;
+
+static void scaled_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
+{
+    const scaled_fn *s = ctx;
+    s->f->eval(s->f->ctx, x, n, dims, out);
+    for (size_t i = 0; i < n; i++)
+        out[i] *= s->factor;
+}
+
+rule_outcome rule_run_spec_scaled(const char *name, uint32_t dims, const double *a,
+                                  const double *u, const qmc_integrate_spec *s, int e)
 {
     qmc_testfn *fn = NULL;
     char why[256];
@@ -22,12 +36,40 @@ rule_outcome rule_run_spec(const char *name, uint32_t dims, const double *a, con
     if (qmc_testfn_new(name, dims, a, np, u, nu, &fn, why, sizeof why))
         fail_msg("%s: %s", name, why);
     const qmc_integrand *f = qmc_testfn_integrand(fn);
+    scaled_fn sf = {f, ldexp(1.0, e)};
+    qmc_integrand g = *f;
+    if (e != 0) {
+        g.eval = scaled_eval;
+        g.ctx = &sf;
+        g.exact = ldexp(f->exact, e);
+        g.abs_integral = ldexp(f->abs_integral, e);
+    }
     qmc_integrate_report rep;
     rule_outcome o;
-    o.err = qmc_integrate(s, f, NULL, NULL, NULL, &rep, why, sizeof why);
+    o.err = qmc_integrate(s, &g, NULL, NULL, NULL, &rep, why, sizeof why);
     o.res = rep.res;
-    o.truth = f->exact;
+    o.truth = g.exact;
     qmc_testfn_free(fn);
+    return o;
+}
+
+rule_outcome rule_run_spec(const char *name, uint32_t dims, const double *a, const double *u,
+                           const qmc_integrate_spec *s)
+{
+    return rule_run_spec_scaled(name, dims, a, u, s, 0);
+}
+
+rule_outcome rule_run_scaled(const char *name, uint32_t dims, const double *a, const double *u,
+                             qmc_method method, uint32_t n_axis, int e)
+{
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = method;
+    s.n_axis = n_axis;
+    s.n_given = n_axis != 0;
+    rule_outcome o = rule_run_spec_scaled(name, dims, a, u, &s, e);
+    if (o.err)
+        fail_msg("%s by %s at 2^%d: error %d", name, qmc_method_name(method), e, o.err);
     return o;
 }
 

@@ -26,6 +26,17 @@ rule_outcome rule_run_spec(const char *name, uint32_t dims, const double *a, con
 rule_outcome rule_run(const char *name, uint32_t dims, const double *a, const double *u,
                       qmc_method method, uint32_t n_axis, uint64_t max_evals);
 
+/* The same on the function times 2^e (its truth scaled with it): a
+ * power of two, so that every exact scale-invariant computation must come
+ * out as the unscaled one times 2^e. */
+rule_outcome rule_run_spec_scaled(const char *name, uint32_t dims, const double *a,
+                                  const double *u, const qmc_integrate_spec *s, int e);
+
+/* The same as rule_run with the default budget, on the function times
+ * 2^e (its truth scaled with it). */
+rule_outcome rule_run_scaled(const char *name, uint32_t dims, const double *a, const double *u,
+                             qmc_method method, uint32_t n_axis, int e);
+
 /* |estimate - truth| <= 3 bars + 64 ulps of the truth, as qmc stability
  * judges. */
 int rule_covers(const rule_outcome *o);

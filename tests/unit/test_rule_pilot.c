@@ -13,6 +13,8 @@
  *   3D kink, midpoint at 8                         bar as it was, no flag,
  *                                                  2048 more evaluations
  *   3D kink, Gauss-Legendre at 16                  bar raised, no flag, covers
+ *   the kink times 2^1000 and 2^-1000              the unscaled results
+ *     (midpoint, Gauss-Legendre)                     times 2^e, to the bit
  *   cos(100 x), Simpson at 17 (unresolved)         unresolved only, covers
  *   2D jumps, midpoint at 128 (plain MC pilot)     bar raised, covers, no flag
  *   2D kink 0.005 from the edge, trapezoid at 65   flagged, bar as it was
@@ -95,6 +97,32 @@ static void test_kink_bar_raised(void **state)
     assert_int_equal(o.res.flags, 0);
     assert_true(o.res.estimate == own.res.estimate && o.res.error > own.res.error);
     assert_true(rule_covers(&o));
+}
+
+static void test_scaled_values(void **state)
+{
+    (void)state;
+    /* The same integrand times 2^1000 and 2^-1000: the pilot's sums of
+     * squares overflow (underflow) unless it scales f back, and then it
+     * found a nonfinite (zero) spread and vouched for nothing.  Scaling by
+     * a power of two is exact, so the results must be the unscaled ones
+     * times 2^e to the bit, flags and all. */
+    const qmc_method methods[] = {QMC_METHOD_MIDPOINT, QMC_METHOD_GAUSS_LEGENDRE};
+    const uint32_t n_axis[] = {8, 16};
+    const int exps[] = {1000, -1000};
+    for (int m = 0; m < 2; m++) {
+        rule_outcome o = rule_run("genz-continuous", 3, a3, u3, methods[m], n_axis[m], 0);
+        assert_int_equal(o.res.flags, 0);
+        for (int k = 0; k < 2; k++) {
+            rule_outcome x = rule_run_scaled("genz-continuous", 3, a3, u3, methods[m],
+                                             n_axis[m], exps[k]);
+            assert_int_equal(x.res.flags, o.res.flags);
+            assert_true(x.res.estimate == ldexp(o.res.estimate, exps[k]));
+            assert_true(x.res.error == ldexp(o.res.error, exps[k]));
+            assert_int_equal(x.res.evals, o.res.evals);
+            assert_true(rule_covers(&x));
+        }
+    }
 }
 
 static void test_unresolved_stays(void **state)
@@ -295,6 +323,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_kink_bar_confirmed),
         cmocka_unit_test(test_kink_bar_raised),
+        cmocka_unit_test(test_scaled_values),
         cmocka_unit_test(test_unresolved_stays),
         cmocka_unit_test(test_jump_bar_raised),
         cmocka_unit_test(test_disagreement_keeps_the_flag),
