@@ -16,6 +16,7 @@
  *
  * Pure computation: no allocation here.
  */
+#include "auto_choice.h"
 #include "integrate_memory.h"
 #include "rule_pilot.h"
 #include "vegas_map.h"

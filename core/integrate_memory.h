@@ -15,17 +15,6 @@
  * cannot fill that much. */
 size_t qmc__cubature_bytes(const qmc_integrate_spec *spec, uint32_t dims, int cc);
 
-/* auto's choices as far as dims and the budget decide them (integrate.c,
- * beside auto_choice, which uses the same conditions): 1 when auto may
- * run method m (gauss-kronrod, clenshaw-curtis, cubature, rqmc) for some
- * integrand of these dims with this budget. */
-int qmc__auto_may_use(qmc_method m, uint32_t dims, uint64_t budget);
-
-/* The method auto picks for f (and control variate g, or NULL) under
- * spec: a rule, or QMC_METHOD_RQMC (auto_choice itself). */
-qmc_method qmc__auto_pick(const qmc_integrate_spec *spec, const qmc_integrand *f,
-                          const qmc_integrand *g);
-
 /* auto's RQMC: the points per replicate of its first round (8 replicates,
  * QMC_SAMPLING_MIN_REPS), with or without a control variate: a power of
  * two from qmc__auto_min_first_n() to QMC_SAMPLING_BLOCK. */
