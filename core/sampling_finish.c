@@ -222,8 +222,10 @@ void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite,
  * genz-gaussian at a = 300 by digitally shifted Sobol: 16 x 2^16 points
  * gave one mean to the bit, right to 1e-17 of 0.0059, and was flagged.
  * The bar is then the rounding floor, 64 ulps of the integral of |f| (a
- * tensor rule's probe has the same floor), and roundoff says so.  Sets
- * res->error and returns 1 when this applies.
+ * tensor rule's probe has the same floor), and roundoff says so.  The
+ * caller checks that the means are equal, not only their spread 0: means
+ * near 2^-600 differ by amounts whose squares underflow.  Sets res->error
+ * and returns 1 when this applies.
  */
 #define AGREE_ROUND_ULPS 64.0
 static int agree_to_rounding(const qmc_sampling_job *job, const qmc_sampling_sums *all,
@@ -283,6 +285,7 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
      * finite points (g is stored already centred by its exact integral). */
     double est[2] = {0.0, 0.0};
     double rep_mean = 0.0, rep_m2 = 0.0;
+    double rep_min = INFINITY, rep_max = -INFINITY; /* bit-equal means: min == max */
     uint32_t reps_ok = 0;
     for (uint32_t r = 0; r < s->reps; r++) {
         double fsum[2] = {0.0, 0.0}, gsum[2] = {0.0, 0.0};
@@ -301,6 +304,8 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
         double delta = m - rep_mean;
         rep_mean += delta / reps_ok;
         rep_m2 += delta * (m - rep_mean);
+        rep_min = fmin(rep_min, m);
+        rep_max = fmax(rep_max, m);
         qmc__sum_add(est, m);
     }
 
@@ -320,7 +325,7 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
         if (s->reps >= 2) {
             se = reps_ok >= 2 ? sqrt(rep_m2 / (reps_ok - 1) / reps_ok) : INFINITY;
             df = reps_ok >= 2 ? reps_ok - 1 : 1;
-            if (se == 0.0 && agree_to_rounding(job, &all, res))
+            if (se == 0.0 && rep_min == rep_max && agree_to_rounding(job, &all, res))
                 se = res->error; /* the floor, with roundoff set */
         } else {
             double resid = all.m2_f - 2.0 * beta * all.c_fg + beta * beta * all.m2_g;
