@@ -596,9 +596,15 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
      * after a few dozen nodes); a rule that spent most of it unresolved
      * keeps its flagged answer rather than trade it for a thinner one. */
     const uint64_t spent = rep->res.evals;
-    const int to_rqmc = spec->method == QMC_METHOD_AUTO &&
-                        (rep->res.flags & QMC_FLAG_UNRESOLVED) &&
-                        !(rep->res.flags & QMC_FLAG_NONFINITE) && spent <= spec->max_evals / 2 &&
+    const uint32_t got = rep->res.flags;
+    const int unresolved = (got & QMC_FLAG_UNRESOLVED) && !(got & QMC_FLAG_NONFINITE);
+    /* auto's Gauss-Kronrod on a declared singularity that evaluated f on
+     * it (a midpoint at 1/2, say): RQMC's points miss it. */
+    const int on_singularity = (got & QMC_FLAG_NONFINITE) &&
+                               s.method == QMC_METHOD_GAUSS_KRONROD &&
+                               f->smoothness == QMC_SMOOTH_SINGULAR;
+    const int to_rqmc = spec->method == QMC_METHOD_AUTO && (unresolved || on_singularity) &&
+                        spent <= spec->max_evals / 2 &&
                         spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16;
     /* A bar still in doubt, kept: checked by points off every node of the
      * rule (rule_pilot.h).  Not when auto is about to replace it, nor
@@ -606,8 +612,10 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
     if (!to_rqmc)
         return refuted ? 0 : qmc__rule_pilot(&s, f, &rep->res, why, why_bytes);
     reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
-                  " nodes left the integrand unresolved (levels agreeing near zero): "
-                  "rqmc with the rest of the budget");
+                  on_singularity ? " nodes included the singularity (a non-finite value): "
+                                   "rqmc with the rest of the budget"
+                                 : " nodes left the integrand unresolved (levels agreeing "
+                                   "near zero): rqmc with the rest of the budget");
     s.method = QMC_METHOD_RQMC;
     s.max_evals = spec->max_evals - spent;
     s.sampling = spec->sampling;

@@ -43,7 +43,8 @@ typedef enum qmc_method {
 #undef QMC__METHOD_ENUM
 } qmc_method;
 
-/* auto uses Gauss-Kronrod for smooth 1D integrands; adaptive cubature up
+/* auto uses Gauss-Kronrod for smooth 1D integrands (and 1D ones declaring
+ * where their jumps are, or a singularity); adaptive cubature up
  * to this many dimensions for integrands declared analytic (5 for
  * continuous ones) when the budget buys 50 regions; RQMC otherwise. */
 #define QMC_AUTO_CUBATURE_MAX_DIMS 10u

@@ -13,6 +13,9 @@
  *     not where (a user's integrand)                     bisected) and carry
  *                                                        error_unreliable
  *   an undeclared interior step                        cover, error_unreliable
+ *   x^-1/2 and log x by auto (RQMC flagged              pick gauss-kronrod,
+ *     heavy_tail before)                                  unflagged, cover
+ *   |x - 1/2|^-1/2 by auto (GK's centre node is inf)   RQMC with the rest
  *   breaks out of order or out of (0,1)                QMC_EINVAL
  */
 #include <stdarg.h>
@@ -125,6 +128,54 @@ static void test_undeclared_jump_near_either_end(void **state)
     ASSERT_FLAGS(o, QMC_FLAG_ERROR_UNRELIABLE);
 }
 
+/* |x - c|^-1/2, declared singular: 2 (sqrt(c) + sqrt(1 - c)). */
+static void inv_sqrt_at_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
+                             double *out)
+{
+    const double *c = ctx;
+    (void)dims;
+    for (size_t i = 0; i < n; i++)
+        out[i] = 1.0 / sqrt(fabs(x[i] - *c));
+}
+
+static void test_auto_takes_gk_for_a_singularity(void **state)
+{
+    (void)state;
+    /* the built-ins: RQMC flagged heavy_tail on x^-1/2 (2.0002 +- 0.0006
+     * at 2e7); Gauss-Kronrod converges unflagged */
+    run_out o = run_au("inv-sqrt", 1, NULL, NULL, QMC_METHOD_AUTO, NULL);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_GAUSS_KRONROD);
+    assert_non_null(strstr(o.rep.auto_reason, "declared singularity"));
+    assert_int_equal(o.rep.res.flags, 0);
+    assert_covers(&o.rep.res, 2.0, 2.0);
+    assert_true(fabs(o.rep.res.estimate - 2.0) <= 1e-6 * 2.0);
+    o = run_au("log", 1, NULL, NULL, QMC_METHOD_AUTO, NULL);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_GAUSS_KRONROD);
+    assert_int_equal(o.rep.res.flags, 0);
+    assert_covers(&o.rep.res, -1.0, 1.0);
+    /* a singularity at 1/2, where the first rule has its centre node: f
+     * is inf there, and auto hands the rest of the budget to RQMC */
+    const double c = 0.5, truth = 2.0 * (sqrt(0.5) + sqrt(0.5));
+    qmc_integrand f = {.eval = inv_sqrt_at_eval, .ctx = &c, .dims = 1,
+                       .smoothness = QMC_SMOOTH_SINGULAR, .name = "inv-sqrt-at"};
+    qmc_integrate_spec spec;
+    qmc_integrate_spec_init(&spec);
+    spec.method = QMC_METHOD_AUTO;
+    spec.max_evals = 1 << 20;
+    memset(&o, 0, sizeof o);
+    o.err = qmc_integrate(&spec, &f, NULL, NULL, NULL, &o.rep, o.why, sizeof o.why);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_RQMC);
+    assert_non_null(strstr(o.rep.auto_reason, "included the singularity"));
+    assert_false(o.rep.res.flags & QMC_FLAG_NONFINITE);
+    assert_true(isfinite(o.rep.res.estimate));
+    if (!(o.rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE))
+        assert_covers(&o.rep.res, truth, truth);
+    assert_true(o.rep.res.evals <= spec.max_evals);
+}
+
 static void const_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
 {
     (void)ctx, (void)x, (void)dims;
@@ -161,6 +212,7 @@ int main(void)
         cmocka_unit_test(test_declared_step_at_the_end),
         cmocka_unit_test(test_auto_takes_gk_for_a_declared_jump),
         cmocka_unit_test(test_undeclared_jump_near_either_end),
+        cmocka_unit_test(test_auto_takes_gk_for_a_singularity),
         cmocka_unit_test(test_bad_breaks_refused),
     };
     return cmocka_run_group_tests_name("stability_gk", tests, NULL, NULL);
