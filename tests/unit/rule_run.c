@@ -59,22 +59,11 @@ rule_outcome rule_run_spec(const char *name, uint32_t dims, const double *a, con
     return rule_run_spec_scaled(name, dims, a, u, s, 0);
 }
 
-rule_outcome rule_run_scaled(const char *name, uint32_t dims, const double *a, const double *u,
-                             qmc_method method, uint32_t n_axis, int e)
-{
-    qmc_integrate_spec s;
-    qmc_integrate_spec_init(&s);
-    s.method = method;
-    s.n_axis = n_axis;
-    s.n_given = n_axis != 0;
-    rule_outcome o = rule_run_spec_scaled(name, dims, a, u, &s, e);
-    if (o.err)
-        fail_msg("%s by %s at 2^%d: error %d", name, qmc_method_name(method), e, o.err);
-    return o;
-}
-
-rule_outcome rule_run(const char *name, uint32_t dims, const double *a, const double *u,
-                      qmc_method method, uint32_t n_axis, uint64_t max_evals)
+/* method at n_axis points an axis (0: its default), within max_evals (0:
+ * the default budget), on f times 2^e; fails the test on an error. */
+static rule_outcome run_method(const char *name, uint32_t dims, const double *a,
+                               const double *u, qmc_method method, uint32_t n_axis,
+                               uint64_t max_evals, int e)
 {
     qmc_integrate_spec s;
     qmc_integrate_spec_init(&s);
@@ -83,10 +72,22 @@ rule_outcome rule_run(const char *name, uint32_t dims, const double *a, const do
     s.n_given = n_axis != 0;
     if (max_evals)
         s.max_evals = max_evals;
-    rule_outcome o = rule_run_spec(name, dims, a, u, &s);
+    rule_outcome o = rule_run_spec_scaled(name, dims, a, u, &s, e);
     if (o.err)
-        fail_msg("%s by %s: error %d", name, qmc_method_name(method), o.err);
+        fail_msg("%s by %s at 2^%d: error %d", name, qmc_method_name(method), e, o.err);
     return o;
+}
+
+rule_outcome rule_run_scaled(const char *name, uint32_t dims, const double *a, const double *u,
+                             qmc_method method, uint32_t n_axis, int e)
+{
+    return run_method(name, dims, a, u, method, n_axis, 0, e);
+}
+
+rule_outcome rule_run(const char *name, uint32_t dims, const double *a, const double *u,
+                      qmc_method method, uint32_t n_axis, uint64_t max_evals)
+{
+    return run_method(name, dims, a, u, method, n_axis, max_evals, 0);
 }
 
 int rule_covers(const rule_outcome *o)
