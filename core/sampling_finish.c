@@ -17,7 +17,6 @@
  * Running blocks lives here too: serially, or through the caller's runner,
  * optionally behind an interrupt hook (qmc__guard_run, see interrupt.h).
  */
-#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -209,40 +208,6 @@ void qmc__sampling_evidence(qmc_result *res, const double *top, uint64_t finite,
         res->flags |= QMC_FLAG_ERROR_UNRELIABLE;
 }
 
-/*
- * Replicate means that agree to the bit.  Each replicate is an unbiased
- * estimate, so the truth is their common expectation.  When the
- * integrand is declared analytic and the points saw it (8 or more
- * nonzero values), a replicate's mean is a continuous function of its
- * randomization with no value it takes with positive probability: R
- * means equal to the bit say that it varies below rounding, and so does
- * the error.  (A step function's replicates take a few values - split
- * nets of the step at 0.7071 all held the same count - and an integrand
- * whose points all saw 0 says nothing: both keep zero_spread.)
- * genz-gaussian at a = 300 by digitally shifted Sobol: 16 x 2^16 points
- * gave one mean to the bit, right to 1e-17 of 0.0059, and was flagged.
- * The bar is then the rounding floor, 64 ulps of the integral of |f| (a
- * tensor rule's probe has the same floor), and roundoff says so.  The
- * caller checks that the means are equal, not only their spread 0: means
- * near 2^-600 differ by amounts whose squares underflow.  Sets res->error
- * and returns 1 when this applies.
- */
-#define AGREE_ROUND_ULPS 64.0
-static int agree_to_rounding(const qmc_sampling_job *job, const qmc_sampling_sums *all,
-                             qmc_result *res)
-{
-    if (job->g || job->f->smoothness != QMC_SMOOTH_ANALYTIC || !isfinite(res->estimate) ||
-        top_nonzero(all->top) < QMC_SAMPLING_MIN_NONZERO)
-        return 0;
-    const double floor =
-        AGREE_ROUND_ULPS * DBL_EPSILON * fmax(fabs(res->estimate), res->abs_integral);
-    if (!(floor > 0.0) || !isfinite(floor))
-        return 0;
-    res->error = floor;
-    res->flags |= QMC_FLAG_ROUNDOFF;
-    return 1;
-}
-
 int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *sums,
                         uint64_t count, qmc_result *res, qmc_cv_report *cv)
 {
@@ -285,7 +250,6 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
      * finite points (g is stored already centred by its exact integral). */
     double est[2] = {0.0, 0.0};
     double rep_mean = 0.0, rep_m2 = 0.0;
-    double rep_min = INFINITY, rep_max = -INFINITY; /* bit-equal means: min == max */
     uint32_t reps_ok = 0;
     for (uint32_t r = 0; r < s->reps; r++) {
         double fsum[2] = {0.0, 0.0}, gsum[2] = {0.0, 0.0};
@@ -304,8 +268,6 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
         double delta = m - rep_mean;
         rep_mean += delta / reps_ok;
         rep_m2 += delta * (m - rep_mean);
-        rep_min = fmin(rep_min, m);
-        rep_max = fmax(rep_max, m);
         qmc__sum_add(est, m);
     }
 
@@ -325,8 +287,6 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
         if (s->reps >= 2) {
             se = reps_ok >= 2 ? sqrt(rep_m2 / (reps_ok - 1) / reps_ok) : INFINITY;
             df = reps_ok >= 2 ? reps_ok - 1 : 1;
-            if (se == 0.0 && rep_min == rep_max && agree_to_rounding(job, &all, res))
-                se = res->error; /* the floor, with roundoff set */
         } else {
             double resid = all.m2_f - 2.0 * beta * all.c_fg + beta * beta * all.m2_g;
             if (resid < 0.0)
