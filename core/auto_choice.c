@@ -102,7 +102,7 @@ qmc_method qmc__auto_choice(const qmc_integrate_spec *spec, const qmc_integrand 
     }
     /* A declared singularity in 1D: Gauss-Kronrod bisects toward it and,
      * when it converges, leaves the unbounded part below its tolerance
-     * (x^-1/2: 2 to 1e-11 in 2499 evaluations, log x to 1e-13), where
+     * (x^-1/2 to 1e-11 of 2 in 2751 evaluations at its default tolerance), where
      * RQMC's variance is infinite and its bar flagged (x^-1/2 at 2e7:
      * 2.0002 +- 0.0006, heavy_tail).  A run that does not converge is
      * flagged by the rule itself (quad_gk.c); one that lands on the

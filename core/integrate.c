@@ -620,6 +620,8 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
     s.max_evals = spec->max_evals - spent;
     s.sampling = spec->sampling;
     s.n_given = spec->n_given;
+    /* the rule's non-finite values are left out of the answer too: said */
+    const uint64_t nonfinite_spent = rep->res.nonfinite;
     memset(&rep->res, 0, sizeof rep->res);
     rep->detail[0] = '\0';
     rep->method_used = QMC_METHOD_RQMC;
@@ -628,6 +630,7 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
         return err;
     err = run_sampling_method(&s, f, g, runner, runner_ctx, rep, &m);
     rep->res.evals += pilot + spent;
+    rep->res.nonfinite += nonfinite_spent;
     qmc__vmap_free(map);
     return err;
 }

@@ -25,8 +25,10 @@
  * every level's and every sibling's nodes (jump-step-end-1d,
  * tiny-light/mis-balance in `qmc stability`: wrong under bars of 1e-17
  * that only this flag marked).  A declared singularity is never
- * confirmed.  Gauss-Kronrod is judged by its own floors (integrate.c),
- * not here.
+ * confirmed for the other rules.  Gauss-Kronrod is judged by its own
+ * floors (integrate.c) on kinks and jumps; on a declared singularity its
+ * converged bar is checked here by a second run at a sixteenth of the
+ * tolerance (rule_confirm.c says why), and flagged unless that agrees.
  * Must not: change the estimate or the bar.
  */
 #ifndef QMC_RULE_CONFIRM_H

@@ -162,7 +162,8 @@ static int pilot_scale_exponent(const qmc_result *res)
     const double size = fmax(fabs(res->estimate), res->abs_integral);
     if (!(size > 0.0) || !isfinite(size))
         return 0;
-    const int e = ilogb(size);
+    /* a subnormal integral's exponent reaches -1074, and 2^1074 is inf */
+    const int e = ilogb(size) < -1022 ? -1022 : ilogb(size);
     return e > SCALE_PAST || e < -SCALE_PAST ? e : 0;
 }
 

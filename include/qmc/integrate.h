@@ -44,9 +44,11 @@ typedef enum qmc_method {
 } qmc_method;
 
 /* auto uses Gauss-Kronrod for smooth 1D integrands (and 1D ones declaring
- * where their jumps are, or a singularity); adaptive cubature up
- * to this many dimensions for integrands declared analytic (5 for
- * continuous ones) when the budget buys 50 regions; RQMC otherwise. */
+ * where their jumps are, or a singularity); the tensor Clenshaw-Curtis
+ * rule for analytic ones when the budget buys 17 points an axis; adaptive
+ * cubature up to this many dimensions for integrands declared analytic
+ * once the budget buys one region (4 dimensions and 50 regions for
+ * continuous ones); RQMC otherwise (core/auto_choice.c). */
 #define QMC_AUTO_CUBATURE_MAX_DIMS 10u
 
 /* A deterministic rule's bar on a 1D integrand that declares where its

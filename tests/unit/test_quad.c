@@ -444,6 +444,15 @@ static void test_gk_endpoint_singular(void **state)
     assert_true(g.seen.min_x > 0.0);
 }
 
+/* |x - 1/3|^-0.99: 3^0.01 (1 + 2^0.01) / 0.01 = 198.5... */
+static void interior_pole_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
+                               double *out)
+{
+    (void)ctx, (void)dims;
+    for (size_t i = 0; i < n; i++)
+        out[i] = pow(fabs(x[i] - 1.0 / 3.0), -0.99);
+}
+
 /* x^-p near p = 1, declared singular: each bisection toward 0 leaves the
  * interval [0, h] whose Kronrod estimate is h^(1-p) times the one on
  * [0, 1], missing the same share of its mass at every level, so the run
@@ -486,6 +495,22 @@ static void test_gk_strong_singularity(void **state)
         if (p[i] == 0.99)
             assert_true(fabs(a.estimate - truth) > 3.0 * a.error); /* the flag was needed */
     }
+    /* an interior pole, where QUADPACK's roundoff tests stop the run long
+     * before the intervals run out (60.5 +- 5.6 against 198.5) */
+    qmc_integrand f = {.eval = interior_pole_eval, .dims = 1,
+                       .smoothness = QMC_SMOOTH_SINGULAR, .name = "interior-pole"};
+    qmc_quad_gk_opts o;
+    qmc_quad_gk_opts_init(&o);
+    size_t bytes = qmc_quad_gk_workspace_bytes(o.max_subdiv);
+    void *ws = malloc(bytes);
+    assert_non_null(ws);
+    qmc_result r;
+    assert_int_equal(qmc_quad_gk(&f, &o, ws, bytes, &r), 0);
+    free(ws);
+    const double truth = pow(3.0, 0.01) * (1.0 + pow(2.0, 0.01)) / 0.01;
+    assert_true(r.flags & QMC_FLAG_NOT_CONVERGED);
+    assert_true(r.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    assert_true(fabs(r.estimate - truth) > 3.0 * r.error);
 }
 
 static void test_gk_step(void **state)

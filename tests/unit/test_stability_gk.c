@@ -16,6 +16,8 @@
  *   x^-1/2 and log x by auto (RQMC flagged              pick gauss-kronrod,
  *     heavy_tail before)                                  unflagged, cover
  *   |x - 1/2|^-1/2 by auto (GK's centre node is inf)   RQMC with the rest
+ *   x^-0.97 by GK and auto at 1e-2 (converged,         error_unreliable (the
+ *     32.28 +- 0.32 against 33.33)                       check at 1e-2 / 16)
  *   breaks out of order or out of (0,1)                QMC_EINVAL
  */
 #include <stdarg.h>
@@ -138,6 +140,51 @@ static void inv_sqrt_at_eval(const void *ctx, const double *x, size_t n, uint32_
         out[i] = 1.0 / sqrt(fabs(x[i] - *c));
 }
 
+/* x^-0.97, declared singular: 1 / 0.03. */
+static void strong_pole_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
+                             double *out)
+{
+    (void)ctx, (void)dims;
+    for (size_t i = 0; i < n; i++)
+        out[i] = pow(x[i], -0.97);
+}
+
+/* Gauss-Kronrod's converged bar on a declared singularity is checked by a
+ * second run at a sixteenth of the tolerance: x^-0.97 at 1e-2 converged
+ * to 32.28 +- 0.32 against 33.33, unflagged, before; the second run
+ * cannot converge (each level misses the same share), so it is flagged.
+ * x^-1/2 confirms. */
+static void test_gk_singular_checked(void **state)
+{
+    (void)state;
+    qmc_integrand f = {.eval = strong_pole_eval, .dims = 1,
+                       .smoothness = QMC_SMOOTH_SINGULAR, .name = "x^-0.97"};
+    qmc_integrate_spec spec;
+    qmc_integrate_spec_init(&spec);
+    spec.method = QMC_METHOD_GAUSS_KRONROD;
+    spec.tol_rel = 1e-2;
+    spec.max_evals = 100000;
+    run_out o;
+    memset(&o, 0, sizeof o);
+    o.err = qmc_integrate(&spec, &f, NULL, NULL, NULL, &o.rep, o.why, sizeof o.why);
+    assert_int_equal(o.err, 0);
+    assert_false(o.rep.res.flags & QMC_FLAG_NOT_CONVERGED); /* the first run converged */
+    ASSERT_FLAGS(o, QMC_FLAG_ERROR_UNRELIABLE);
+    assert_true(fabs(o.rep.res.estimate - 1.0 / 0.03) > 3.0 * o.rep.res.error);
+    assert_true(o.rep.res.evals <= spec.max_evals);
+    /* the same by auto */
+    spec.method = QMC_METHOD_AUTO;
+    memset(&o, 0, sizeof o);
+    o.err = qmc_integrate(&spec, &f, NULL, NULL, NULL, &o.rep, o.why, sizeof o.why);
+    assert_int_equal(o.rep.method_used, QMC_METHOD_GAUSS_KRONROD);
+    ASSERT_FLAGS(o, QMC_FLAG_ERROR_UNRELIABLE);
+    /* x^-1/2 confirms, at the cost of the second run */
+    o = run_au("inv-sqrt", 1, NULL, NULL, QMC_METHOD_GAUSS_KRONROD, NULL);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.rep.res.flags, 0);
+    assert_covers(&o.rep.res, 2.0, 2.0);
+}
+
 static void test_auto_takes_gk_for_a_singularity(void **state)
 {
     (void)state;
@@ -212,6 +259,7 @@ int main(void)
         cmocka_unit_test(test_declared_step_at_the_end),
         cmocka_unit_test(test_auto_takes_gk_for_a_declared_jump),
         cmocka_unit_test(test_undeclared_jump_near_either_end),
+        cmocka_unit_test(test_gk_singular_checked),
         cmocka_unit_test(test_auto_takes_gk_for_a_singularity),
         cmocka_unit_test(test_bad_breaks_refused),
     };
