@@ -105,9 +105,10 @@ qmc_method qmc__auto_choice(const qmc_integrate_spec *spec, const qmc_integrand 
      * (x^-1/2 to 1e-11 of 2 in 2751 evaluations at its default tolerance), where
      * RQMC's variance is infinite and its bar flagged (x^-1/2 at 2e7:
      * 2.0002 +- 0.0006, heavy_tail).  A run that does not converge is
-     * flagged by the rule itself (quad_gk.c); one that lands on the
-     * singularity (a non-finite value) hands the rest of the budget to
-     * RQMC (integrate.c). */
+     * flagged by the rule itself (quad_gk.c), a converged one must agree
+     * with a second run at a sixteenth of the tolerance (rule_confirm.c),
+     * and one that lands on the singularity (a non-finite value) hands
+     * the rest of the budget to RQMC (integrate.c). */
     if (!g && d == 1 && f->smoothness == QMC_SMOOTH_SINGULAR) {
         qmc__msg_str(&m, "gauss-kronrod: 1 dimension and a declared singularity (the rule "
                          "bisects toward it; rqmc's variance may be infinite)");
