@@ -518,8 +518,8 @@ int qmc_quad_gk(const qmc_integrand *f, const qmc_quad_gk_opts *opts,
      * spike; near p = 1 the bar falls short: x^-0.99 gave 76.7 +- 2.2
      * against 100 at 200 intervals, and |x - 1/3|^-0.99 60.5 +- 5.6
      * against 198.5 when the roundoff tests stopped it after 1953
-     * evaluations.  A run that converged keeps its bar; `auto` checks
-     * even that one (integrate.c). */
+     * evaluations.  A run that converged keeps its bar here; through
+     * qmc_integrate a second run checks even that one (rule_confirm.c). */
     if (f->smoothness >= QMC_SMOOTH_SINGULAR && (flags & QMC_FLAG_NOT_CONVERGED))
         flags |= QMC_FLAG_ERROR_UNRELIABLE;
     res->estimate = area;

@@ -11,6 +11,26 @@
 #include "rule_confirm.h"
 #include "qmc/quad.h"
 
+/* Gauss-Kronrod under g into *r: 1 when it ran and came out clean (no
+ * flag that doubts its bar, finite estimate and bar), else 0.  Its
+ * evaluations are added to res's when it ran. */
+static int gk_clean_run(const qmc_integrand *f, const qmc_quad_gk_opts *g, qmc_result *res,
+                        qmc_result *r)
+{
+    size_t bytes = qmc_quad_gk_workspace_bytes(g->max_subdiv);
+    void *ws = malloc(bytes);
+    if (!ws)
+        return 0;
+    int err = qmc_quad_gk(f, g, ws, bytes, r);
+    free(ws);
+    if (err)
+        return 0; /* no room, cancelled: nothing to go by */
+    res->evals += r->evals;
+    const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE | QMC_FLAG_NONFINITE | QMC_FLAG_ROUNDOFF |
+                           QMC_FLAG_MAX_SUBDIV | QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
+    return !(r->flags & doubt) && isfinite(r->estimate) && isfinite(r->error);
+}
+
 /* Gauss-Kronrod from the declared breaks, within `left` evaluations: 1
  * when it confirms the bar, -1 when it refutes it (GK ran clean and
  * disagrees), 0 when it cannot tell. */
@@ -27,19 +47,8 @@ static int gk_confirms(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_
         g.tol_abs = DBL_MIN;
     g.max_evals = left < QMC_INTEGRATE_CONFIRM_EVALS ? left : QMC_INTEGRATE_CONFIRM_EVALS;
     g.interrupt = s->interrupt;
-    size_t bytes = qmc_quad_gk_workspace_bytes(g.max_subdiv);
-    void *ws = malloc(bytes);
-    if (!ws)
-        return 0;
     qmc_result r;
-    int err = qmc_quad_gk(f, &g, ws, bytes, &r);
-    free(ws);
-    if (err)
-        return 0; /* over budget, cancelled: nothing confirmed */
-    res->evals += r.evals;
-    const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE | QMC_FLAG_NONFINITE | QMC_FLAG_ROUNDOFF |
-                           QMC_FLAG_MAX_SUBDIV | QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
-    if ((r.flags & doubt) || !isfinite(r.estimate) || !isfinite(r.error))
+    if (!gk_clean_run(f, &g, res, &r))
         return 0;
     return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack ? 1 : -1;
 }
@@ -69,19 +78,8 @@ static int gk_singular_confirmed(const qmc_integrate_spec *s, const qmc_integran
     g.tol_rel /= 16.0;
     g.max_evals = s->max_evals > res->evals ? s->max_evals - res->evals : 0;
     g.interrupt = s->interrupt;
-    size_t bytes = qmc_quad_gk_workspace_bytes(g.max_subdiv);
-    void *ws = malloc(bytes);
-    if (!ws)
-        return 0;
     qmc_result r;
-    int err = qmc_quad_gk(f, &g, ws, bytes, &r);
-    free(ws);
-    if (err)
-        return 0; /* no room, cancelled: nothing confirmed */
-    res->evals += r.evals;
-    const uint32_t doubt = QMC_FLAG_ERROR_UNRELIABLE | QMC_FLAG_NONFINITE | QMC_FLAG_ROUNDOFF |
-                           QMC_FLAG_MAX_SUBDIV | QMC_FLAG_BUDGET | QMC_FLAG_NOT_CONVERGED;
-    if ((r.flags & doubt) || !isfinite(r.estimate) || !isfinite(r.error))
+    if (!gk_clean_run(f, &g, res, &r))
         return 0;
     const double slack = 32.0 * DBL_EPSILON * fmax(fabs(res->estimate), fabs(r.estimate));
     return fabs(res->estimate - r.estimate) + r.error <= 2.0 * res->error + slack;

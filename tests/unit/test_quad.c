@@ -444,6 +444,20 @@ static void test_gk_endpoint_singular(void **state)
     assert_true(g.seen.min_x > 0.0);
 }
 
+/* f by Gauss-Kronrod with the default options; fails the test on an error. */
+static qmc_result gk_default(const qmc_integrand *f)
+{
+    qmc_quad_gk_opts o;
+    qmc_quad_gk_opts_init(&o);
+    size_t bytes = qmc_quad_gk_workspace_bytes(o.max_subdiv);
+    void *ws = malloc(bytes);
+    assert_non_null(ws);
+    qmc_result r;
+    assert_int_equal(qmc_quad_gk(f, &o, ws, bytes, &r), 0);
+    free(ws);
+    return r;
+}
+
 /* |x - 1/3|^-0.99: 3^0.01 (1 + 2^0.01) / 0.01 = 198.5... */
 static void interior_pole_eval(const void *ctx, const double *x, size_t n, uint32_t dims,
                                double *out)
@@ -470,14 +484,7 @@ static void test_gk_strong_singularity(void **state)
         fn_ctx c = {F_POW, -p[i], &seen};
         qmc_integrand f = make_fn(&c, 1);
         f.smoothness = QMC_SMOOTH_SINGULAR;
-        qmc_quad_gk_opts o;
-        qmc_quad_gk_opts_init(&o);
-        size_t bytes = qmc_quad_gk_workspace_bytes(o.max_subdiv);
-        void *ws = malloc(bytes);
-        assert_non_null(ws);
-        qmc_result r;
-        assert_int_equal(qmc_quad_gk(&f, &o, ws, bytes, &r), 0);
-        free(ws);
+        qmc_result r = gk_default(&f);
         const double truth = 1.0 / (1.0 - p[i]);
         assert_true(r.flags & QMC_FLAG_MAX_SUBDIV);
         assert_true(r.flags & QMC_FLAG_NOT_CONVERGED);
@@ -486,11 +493,7 @@ static void test_gk_strong_singularity(void **state)
         /* declared analytic (the same values), the flag is not raised */
         probe_init(&seen);
         f.smoothness = QMC_SMOOTH_ANALYTIC;
-        ws = malloc(bytes);
-        assert_non_null(ws);
-        qmc_result a;
-        assert_int_equal(qmc_quad_gk(&f, &o, ws, bytes, &a), 0);
-        free(ws);
+        qmc_result a = gk_default(&f);
         assert_false(a.flags & QMC_FLAG_ERROR_UNRELIABLE);
         if (p[i] == 0.99)
             assert_true(fabs(a.estimate - truth) > 3.0 * a.error); /* the flag was needed */
@@ -499,14 +502,7 @@ static void test_gk_strong_singularity(void **state)
      * before the intervals run out (60.5 +- 5.6 against 198.5) */
     qmc_integrand f = {.eval = interior_pole_eval, .dims = 1,
                        .smoothness = QMC_SMOOTH_SINGULAR, .name = "interior-pole"};
-    qmc_quad_gk_opts o;
-    qmc_quad_gk_opts_init(&o);
-    size_t bytes = qmc_quad_gk_workspace_bytes(o.max_subdiv);
-    void *ws = malloc(bytes);
-    assert_non_null(ws);
-    qmc_result r;
-    assert_int_equal(qmc_quad_gk(&f, &o, ws, bytes, &r), 0);
-    free(ws);
+    qmc_result r = gk_default(&f);
     const double truth = pow(3.0, 0.01) * (1.0 + pow(2.0, 0.01)) / 0.01;
     assert_true(r.flags & QMC_FLAG_NOT_CONVERGED);
     assert_true(r.flags & QMC_FLAG_ERROR_UNRELIABLE);
