@@ -87,15 +87,22 @@ void qmc__top_merge(double *a, const double *b);
  * times in all, kurt ~ N / H and the result ~ 1 / sqrt(H): it counts the
  * values that carry the variance.  NAN when fewer than
  * QMC__RSE_MIN_BLOCKS blocks hold two finite points or the variance is 0
- * or not finite.  Blocks of a net (stratified, lhs, a scrambled net's
- * replicate) are less random than independent points, so their variances
- * agree better and the result is smaller: it is used only to clear a
- * bounded integrand of Hill's flag, where the net's estimate is as much
- * better.
+ * or not finite.  Blocks of a net (lhs, a scrambled net's replicate) are
+ * less random than independent points, so their variances agree better
+ * and the result is smaller: it is used only to clear a bounded integrand
+ * of Hill's flag, where the net's estimate is as much better.  A
+ * stratified sample's blocks are slabs of the cube, not exchangeable at
+ * all: it takes qmc__pooled_variance_rse instead.
  */
 #define QMC__RSE_MIN_BLOCKS 16u
 #define QMC__RSE_BOUNDED 0.25
 double qmc__variance_rse(const qmc_sampling_sums *sums, uint64_t count);
+
+/* The same from the pooled sample (mean and central sum of squares m2 of
+ * `finite` points, their top values), for samplers whose blocks are not
+ * exchangeable (stratified): an upper bound, from the largest values, on
+ * what the sample's own fourth moment would give (sampling_finish.c). */
+double qmc__pooled_variance_rse(const double *top, uint64_t finite, double mean, double m2);
 
 /* The evidence flags of a finished sampling result (sampling_finish.c):
  * heavy_tail from the pooled top values of `finite` finite points (for an

@@ -16,7 +16,8 @@
  *   cc -O2 -Iinclude -Icore bench/scans/tail_evidence_scan.c build/libqmc.a \
  *      -lm -lsodium -pthread -o /tmp/tail_evidence_scan
  *   /tmp/tail_evidence_scan RUNS SAMPLER FAMILY SEED THR
- * SAMPLER: 0 mc, 2 lhs, 4 rqmc (16 replicates of n / 16).
+ * SAMPLER: 0 mc, 1 stratified (the largest k^d <= n strata; the pooled
+ * statistic, qmc__pooled_variance_rse), 2 lhs, 4 rqmc (16 replicates of n / 16).
  */
 #include <math.h>
 #include <stdio.h>
@@ -27,6 +28,19 @@
 #include "qmc/testfn.h"
 
 #include "scan_rng.h"
+
+/* the pooled statistic from all blocks, merged as the library does */
+static double pooled_rse(const qmc_sampling_sums *sums, uint64_t nb, const double *top,
+                         uint64_t n)
+{
+    qmc_sampling_sums all = {0};
+    for (uint64_t b = 0; b < nb; b++) {
+        qmc__moments_merge(&all, &sums[b]); /* reads the counts merged so far */
+        all.count += sums[b].count;
+        all.nonfinite += sums[b].nonfinite;
+    }
+    return qmc__pooled_variance_rse(top, n, all.mean_f, all.m2_f);
+}
 
 /* error_unreliable from the evidence alone, given the block statistic */
 static int judged(const double *top, uint64_t n, double rse)
@@ -58,7 +72,13 @@ int main(int argc, char **argv)
             a[j] = exp(lo + (hi - lo) * u01());
             u[j] = 0.1 + 0.8 * u01();
         }
-        const uint64_t n = u01() < 0.5 ? 1u << 16 : 1u << 18;
+        uint64_t n = u01() < 0.5 ? 1u << 16 : 1u << 18;
+        if (sampler == QMC_SAMPLER_STRATIFIED) { /* k^d strata: the largest k^d <= n */
+            uint64_t k = (uint64_t)floor(pow((double)n, 1.0 / d) + 1e-9), p = 1;
+            for (int j = 0; j < d; j++)
+                p *= k;
+            n = p;
+        }
         qmc_testfn *fn;
         if (qmc_testfn_new(family, (uint32_t)d, a, (size_t)d, u, (size_t)d, &fn, NULL, 0))
             return 2;
@@ -85,7 +105,11 @@ int main(int argc, char **argv)
         }
         if (qmc_sampling_finish(job, sums, nb, &res, NULL))
             return 5;
-        const double rse = sp.reps >= 2 ? NAN : qmc__variance_rse(sums, nb);
+        /* stratified's blocks are slabs: the pooled bound is its statistic */
+        const double rse = sp.reps >= 2 ? NAN
+                           : sampler == QMC_SAMPLER_STRATIFIED
+                               ? pooled_rse(sums, nb, top, n)
+                               : qmc__variance_rse(sums, nb);
         const int before = judged(top, n, NAN), after = judged(top, n, rse <= thr ? rse : NAN);
         const double miss = fabs(res.estimate - f->exact);
         if (miss <= 3 * res.error + 64 * 2.220446049250313e-16 * f->exact) {
