@@ -143,9 +143,11 @@ double qmc__variance_rse(const qmc_sampling_sums *sums, uint64_t count)
  * most (top[63] + |mean|)^2 times its square, whose sum is at most m2
  * less what the top values surely hold.  An upper bound on the sample's
  * kurtosis gives an upper bound on the estimate, so the test is at least
- * as strict as the sample itself allows.  Scaled by the largest
- * magnitude, so it neither overflows nor underflows.  NAN when the
- * variance is 0 or not finite.
+ * as strict as the sample itself allows.  The fourth powers are taken at
+ * the scale of the largest magnitude, so they neither overflow nor
+ * underflow; m2 arrives at the values' own scale, where rounding in the
+ * subnormal range can inflate it, but a bar there is 0 and flagged
+ * zero_spread anyway.  NAN when the variance is 0 or not finite.
  */
 double qmc__pooled_variance_rse(const double *top, uint64_t finite, double mean, double m2)
 {
@@ -159,7 +161,8 @@ double qmc__pooled_variance_rse(const double *top, uint64_t finite, double mean,
     double s4 = 0.0, held = 0.0;
     int k = 0;
     for (; k < QMC_SAMPLING_TOP && top[k] > 0.0; k++) {
-        const double t = top[k] / scale, hi = t + mu, lo = t > mu ? t - mu : 0.0;
+        /* |f - mean| lies between ||f| - |mean|| and |f| + |mean| */
+        const double t = top[k] / scale, hi = t + mu, lo = t - mu;
         s4 += hi * hi * hi * hi;
         held += lo * lo;
     }

@@ -107,8 +107,9 @@ double qmc__pooled_variance_rse(const double *top, uint64_t finite, double mean,
 /* The evidence flags of a finished sampling result (sampling_finish.c):
  * heavy_tail from the pooled top values of `finite` finite points (for an
  * integrand that declares no singularity, only while variance_rse, from
- * qmc__variance_rse, is above QMC__RSE_BOUNDED or NAN - NAN for a
- * replicated bar - or the top values follow a power law), and the "cannot
+ * qmc__variance_rse or for stratified samples qmc__pooled_variance_rse,
+ * is above QMC__RSE_BOUNDED or NAN - NAN for a replicated bar - or the
+ * top values follow a power law), and the "cannot
  * tell" flags - few_nonzero, tail_untested, zero_spread and an infinite
  * bar - which mark a bar resting on evidence that cannot see the failure;
  * has_bar is 0 for plain qmc, which claims no bar; singular is whether
