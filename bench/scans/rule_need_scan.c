@@ -120,9 +120,12 @@ int main(int argc, char **argv)
             misses += !ok;
             misses_flagged += !ok && fl;
             correct_flagged += ok && fl;
-            if (!ok && !fl)
-                printf("  silent: a1 %.17g u1 %.17g: %.17g +- %.3g, truth %.17g\n", ar[0],
-                       u[0], res->estimate, res->error, truth);
+            if (!ok && !fl) {
+                printf("  silent:");
+                for (int j = 0; j < d; j++)
+                    printf(" a%d %.17g u%d %.17g", j + 1, ar[j], j + 1, u[j]);
+                printf(": %.17g +- %.3g, truth %.17g\n", res->estimate, res->error, truth);
+            }
         }
         qmc_testfn_free(fn);
     }
