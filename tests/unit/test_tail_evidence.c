@@ -203,13 +203,13 @@ static void inv_sqrt(const void *ctx, const double *x, size_t n, uint32_t dims, 
         out[i] = 1.0 / sqrt(x[i]);
 }
 
-/* Hill's verdict on a run (rse NAN: no block evidence) and the verdict
- * with the run's own block evidence, from the job's block sums. */
-static void verdicts(const qmc_integrand *f, uint64_t n, uint64_t seed, uint32_t *hill,
-                     uint32_t *both)
+/* One job of `sampler` run block by block: its result, its pooled top
+ * values and its block statistic (qmc__variance_rse). */
+static qmc_result run_job(const qmc_integrand *f, qmc_sampler sampler, uint64_t n,
+                          uint64_t seed, double *top, double *block_rse)
 {
     qmc_sampling_spec s;
-    qmc_sampling_spec_init(&s, QMC_SAMPLER_MC);
+    qmc_sampling_spec_init(&s, sampler);
     s.n = n;
     s.seed = seed;
     qmc_sampling_job *job = NULL;
@@ -218,22 +218,34 @@ static void verdicts(const qmc_integrand *f, uint64_t n, uint64_t seed, uint32_t
     qmc_sampling_sums *sums = test_calloc(nb, sizeof *sums);
     size_t bytes = qmc_sampling_workspace_bytes(job);
     void *ws = test_malloc(bytes);
-    double top[QMC_SAMPLING_TOP] = {0};
+    for (int i = 0; i < QMC_SAMPLING_TOP; i++)
+        top[i] = 0.0;
     for (uint64_t b = 0; b < nb; b++) {
         assert_int_equal(qmc_sampling_run_block(job, b, ws, bytes, &sums[b]), 0);
         qmc__top_merge(top, sums[b].top);
     }
     qmc_result r;
     assert_int_equal(qmc_sampling_finish(job, sums, nb, &r, NULL), 0);
+    *block_rse = qmc__variance_rse(sums, nb);
+    test_free(ws);
+    test_free(sums);
+    qmc_sampling_job_free(job);
+    return r;
+}
+
+/* Hill's verdict on a run (rse NAN: no block evidence) and the verdict
+ * with the run's own block evidence, from the job's block sums. */
+static void verdicts(const qmc_integrand *f, uint64_t n, uint64_t seed, uint32_t *hill,
+                     uint32_t *both)
+{
+    double top[QMC_SAMPLING_TOP], rse;
+    qmc_result r = run_job(f, QMC_SAMPLER_MC, n, seed, top, &rse);
     *both = r.flags & QMC_FLAG_HEAVY_TAIL;
     qmc_result_init(&r);
     r.estimate = 1.0;
     r.error = 0.01;
     qmc__sampling_evidence(&r, top, n, 1, 0, NAN);
     *hill = r.flags & QMC_FLAG_HEAVY_TAIL;
-    test_free(ws);
-    test_free(sums);
-    qmc_sampling_job_free(job);
 }
 
 static void test_undeclared_infinite_variance_kept(void **state)
@@ -345,26 +357,10 @@ static qmc_result stratified(const char *fam, uint32_t d, const double *a, const
 {
     qmc_testfn *fn = NULL;
     assert_int_equal(qmc_testfn_new(fam, d, a, d, u, d, &fn, NULL, 0), 0);
-    const qmc_integrand *f = qmc_testfn_integrand(fn);
-    qmc_sampling_spec s;
-    qmc_sampling_spec_init(&s, QMC_SAMPLER_STRATIFIED);
-    s.n = n;
-    s.seed = seed;
-    qmc_sampling_job *job = NULL;
-    assert_int_equal(qmc_sampling_job_new(&s, f, NULL, &job, NULL, 0), 0);
-    const uint64_t nb = qmc_sampling_blocks(job);
-    qmc_sampling_sums *sums = test_calloc(nb, sizeof *sums);
-    size_t bytes = qmc_sampling_workspace_bytes(job);
-    void *ws = test_malloc(bytes);
-    for (uint64_t b = 0; b < nb; b++)
-        assert_int_equal(qmc_sampling_run_block(job, b, ws, bytes, &sums[b]), 0);
-    qmc_result r;
-    assert_int_equal(qmc_sampling_finish(job, sums, nb, &r, NULL), 0);
-    *block_rse = qmc__variance_rse(sums, nb);
-    *exact = f->exact;
-    test_free(ws);
-    test_free(sums);
-    qmc_sampling_job_free(job);
+    double top[QMC_SAMPLING_TOP];
+    qmc_result r =
+        run_job(qmc_testfn_integrand(fn), QMC_SAMPLER_STRATIFIED, n, seed, top, block_rse);
+    *exact = qmc_testfn_integrand(fn)->exact;
     qmc_testfn_free(fn);
     return r;
 }
