@@ -357,12 +357,16 @@ int qmc_sampling_finish(const qmc_sampling_job *job, const qmc_sampling_sums *su
     if (!isfinite(res->estimate) ||
         (res->error_kind == QMC_ERROR_STDERR && isnan(res->error)))
         res->flags |= QMC_FLAG_NONFINITE | QMC_FLAG_ERROR_UNRELIABLE;
+    /* How well the sample variance is known: none for a replicated bar
+     * (it rests on replicate means), from the pooled sample for
+     * stratified (its blocks are slabs), else from the blocks. */
+    double variance_rse = NAN;
+    if (s->reps < 2)
+        variance_rse = s->sampler == QMC_SAMPLER_STRATIFIED
+                           ? qmc__pooled_variance_rse(all.top, finite, all.mean_f, all.m2_f)
+                           : qmc__variance_rse(sums, nb);
     qmc__sampling_evidence(res, all.top, finite, s->sampler != QMC_SAMPLER_QMC,
-                           job->f->smoothness >= QMC_SMOOTH_SINGULAR,
-                           s->reps >= 2 ? NAN
-                           : s->sampler == QMC_SAMPLER_STRATIFIED
-                               ? qmc__pooled_variance_rse(all.top, finite, all.mean_f, all.m2_f)
-                               : qmc__variance_rse(sums, nb));
+                           job->f->smoothness >= QMC_SMOOTH_SINGULAR, variance_rse);
     /* A replicated bar on a declared singularity: a net puts one point in
      * each small stratum, so a replicate's error is dominated by its point
      * nearest the singularity, and the replicate means are skewed by a
