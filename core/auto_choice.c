@@ -27,7 +27,9 @@
  *  - on continuous integrands (kinks), cubature only up to 4 dimensions
  *    and when the budget buys QMC_AUTO_MIN_REGIONS regions: at d = 3 it
  *    beat RQMC 13x, at d = 4 it won at 1e5 evaluations and lost 1.7x at
- *    1e4, and at d = 5 RQMC won 3.4x;
+ *    1e4, and at d = 5 RQMC won 3.4x; its bar there rests on its own
+ *    nodes, so with half the budget left RQMC follows it and vouches for
+ *    that bar or replaces the answer (integrate.c, auto_witness);
  *  - everywhere else randomized QMC (owen-scrambled Sobol), whose error
  *    bar stays honest at any dimension and smoothness.
  */

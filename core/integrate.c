@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "auto_choice.h"
+#include "auto_rqmc.h"
 #include "integrate_memory.h"
 #include "interrupt.h"
 #include "msg.h"
@@ -18,6 +19,7 @@
 #include "rule_confirm.h"
 #include "rule_pilot.h"
 #include "rule_evidence.h"
+#include "scaled_integrand.h"
 #include "vegas_map.h"
 #include "qmc/integrate.h"
 #include "qmc/quad.h"
@@ -250,194 +252,6 @@ static int run_cubature(const qmc_integrate_spec *spec, const qmc_integrand *f, 
     return 0;
 }
 
-/*
- * auto's RQMC may run over a VEGAS map (vegas_map.h): a pilot trains it
- * (pilot_evals: a tenth of the budget or what the RQMC rounds would leave
- * unspent, at most AUTO_PILOT_MAX evaluations, 12 rounds of about 11000
- * points, which trains a map at d = 30 as well as 1e6 did and keeps a
- * tolerance-driven job with the default budget of 1e8 from spending a
- * million evaluations on its pilot; only for budgets of
- * AUTO_PILOT_MIN_BUDGET or more), and RQMC integrates f J over
- * the map when the pilot's variance under the map is AUTO_MAP_GAIN times
- * below plain f's.  The gain must be large because the map's bin edges
- * are jumps in f J, which cost QMC part of its edge on smooth integrands;
- * peaks, corners and support confined to a box gain far more than that.
- * The pilot's evaluations count against the budget either way.  Not for
- * integrands that declare jumps: the bin that straddles a jump is wide on
- * its zero side, so the rare points that land there with f != 0 carry
- * large weights (the heavy-tail test fired on 6 of 12 draws of the
- * discontinuous Genz family at d = 20), and over 8 draws the error was
- * 1.4x worse than plain RQMC's.
- */
-enum { AUTO_PILOT_SHARE = 10, AUTO_MAP_GAIN = 16, AUTO_MAP_AGREE = 3 };
-/* (integrate_memory.h's QMC__AUTO_MAP_MIN_BUDGET must equal it.) */
-#define AUTO_PILOT_MIN_BUDGET 10000u
-_Static_assert(AUTO_PILOT_MIN_BUDGET == QMC__AUTO_MAP_MIN_BUDGET, "the bound's map budget");
-#define AUTO_PILOT_MAX (1u << 17)
-
-/* The pilot's evaluations out of a budget.  RQMC's rounds double n, so
- * once they reuse each other (8 x 4096 points and up) they end at the
- * largest 8 x 2^k that fits and leave the rest unspent - a third of a
- * budget of 1e5.  The pilot takes that rest rather than a tenth: at
- * d = 30 a pilot of 1e4 evaluations never trained a map that helped the
- * corner peak, one of 3.4e4 did in half the draws (the error over 50-200
- * draws fell 13-21x), at no cost in RQMC points; where no map helps
- * (the oscillatory family) the pilot stops after 4 of its rounds, which
- * at d = 20 costs 0.8 ms more than the smaller pilot did. */
-static uint64_t pilot_evals(uint64_t budget)
-{
-    uint64_t evals = budget / AUTO_PILOT_SHARE;
-    uint64_t main_run = (uint64_t)QMC_SAMPLING_MIN_REPS * QMC_SAMPLING_BLOCK;
-    if (main_run <= budget - evals) {
-        while (2 * main_run <= budget - evals)
-            main_run *= 2;
-        evals = budget - main_run;
-    }
-    return evals > AUTO_PILOT_MAX ? AUTO_PILOT_MAX : evals;
-}
-
-/* Appends to auto's reason without cutting what is there. */
-static void reason_append(char *reason, size_t bytes, const char *a, uint64_t v, const char *b)
-{
-    qmc__msg m;
-    size_t len = strlen(reason);
-    qmc__msg_init(&m, reason + len, bytes - len);
-    qmc__msg_set(&m, a, v, b);
-}
-
-static int auto_map(const qmc_integrate_spec *spec, const qmc_integrand *f, qmc__vmap **map,
-                    uint64_t *pilot, char *reason, size_t bytes)
-{
-    *map = NULL;
-    *pilot = 0;
-    if (f->dims > QMC__VMAP_MAX_DIMS || spec->max_evals < AUTO_PILOT_MIN_BUDGET ||
-        f->smoothness >= QMC_SMOOTH_DISCONTINUOUS)
-        return 0;
-    const uint64_t evals = pilot_evals(spec->max_evals);
-    qmc__vmap_report vr;
-    qmc__vmap *m = NULL;
-    int err = qmc__vmap_train(f, evals, spec->sampling.seed, &spec->interrupt, &m, &vr);
-    *pilot = vr.evals;
-    if (err == QMC_EBUDGET || err == QMC_EDIMS)
-        return 0;
-    if (err)
-        return err;
-    if (!m)
-        return 0; /* non-finite values: plain RQMC counts and flags them */
-    /* Both rounds estimate the same integral: a map whose round disagrees
-     * with the plain one by more than AUTO_MAP_AGREE standard errors has
-     * missed mass that its own variance cannot show (rare points of huge
-     * weight, the failure of a product of per-axis Jacobians when the
-     * pilot was too thin for the dimension). */
-    const double n = (double)vr.round_points;
-    const double spread = sqrt(vr.var_plain / n + vr.var_mapped / n);
-    const int agree = fabs(vr.mean_mapped - vr.mean_plain) <= AUTO_MAP_AGREE * spread;
-    if (agree && vr.var_mapped * AUTO_MAP_GAIN <= vr.var_plain) {
-        *map = m;
-        double gain = vr.var_mapped > 0 ? vr.var_plain / vr.var_mapped : 1e6;
-        reason_append(reason, bytes, "; over a VEGAS map (a pilot of ", vr.evals,
-                      " evaluations cut the variance ");
-        reason_append(reason, bytes, "", (uint64_t)(gain > 1e6 ? 1e6 : gain), "x)");
-    } else {
-        qmc__vmap_free(m);
-        reason_append(reason, bytes, "; a VEGAS map's pilot (", vr.evals,
-                      agree ? " evaluations) did not cut the variance 16x"
-                            : " evaluations) disagreed with the plain round");
-    }
-    return 0;
-}
-
-/* auto's RQMC: 8 replicates (the fewest that keep the interval reliable,
- * QMC_SAMPLING_MIN_REPS; the coverage test checks them), and a first round
- * sized from the budget - at most 4096 points, so later rounds reuse it
- * whole, and at least what leaves room for doubling.  (Under 4096 points a
- * round is not reused, so a budget of 1e4 ends after one round of 8 x 512
- * points.  Spending it all, 8 x 1024, was measured: the error fell 1.5-2x
- * and the time doubled, which at d >= 20 let GSL's Sobol at 1e4 finish
- * first and beat it - 7 (family, d) pairs lost the equal-time target for
- * one gained.)
- *
- * The replicates split one net (qmc_sampling_spec.split_net): replicate r
- * is points [r n, (r+1) n) of one scrambled sequence, so the estimate is
- * that of one net of 8 n points, and the spread of the blocks - each a net
- * of n - overstates its error.  With jumps a net's error falls like 1/N,
- * so 8 independent nets of N/8 were sqrt(8) = 2.8x less accurate than one
- * of N (bench_integrate, the discontinuous family, every d).  Smooth
- * integrands gain more (N^-3/2): over 200 draws at budgets 1e5 and 1e6,
- * 2-6x on the Gaussian, product-peak, oscillatory and continuous families
- * at d = 5-30, and 1.1-2.3x on the corner peak, with the interval
- * covering 93-100% of the time against 92-98% for independent nets.  But
- * the blocks share the sequence's scramble, and the part of the error that
- * comes from it is the same in every block, out of sight of their spread:
- * at 8 x 512 points the corner peak at d = 30 covered 88.5% and lost 1.2x.
- * So smooth integrands split only from AUTO_SPLIT_MIN_N points a
- * replicate; integrands with jumps always (test_coverage). */
-#define AUTO_SPLIT_MIN_N QMC_SAMPLING_BLOCK
-
-enum { AUTO_MIN_FIRST_N = 16 };
-
-uint64_t qmc__auto_first_n(uint64_t budget, int control)
-{
-    const uint64_t per_point = (uint64_t)QMC_SAMPLING_MIN_REPS * (control ? 2 : 1);
-    uint64_t n = QMC_SAMPLING_BLOCK;
-    while (n > AUTO_MIN_FIRST_N && n * per_point * 2 > budget)
-        n /= 2;
-    return n;
-}
-
-uint64_t qmc__auto_min_first_n(void)
-{
-    return AUTO_MIN_FIRST_N;
-}
-
-static qmc_sampling_spec auto_rqmc(const qmc_integrate_spec *spec, const qmc_integrand *f,
-                                   const qmc_integrand *g, char *reason, size_t bytes)
-{
-    qmc_sampling_spec r;
-    qmc_sampling_spec_init(&r, QMC_SAMPLER_RQMC);
-    r.seed = spec->sampling.seed;
-    r.confidence = spec->sampling.confidence;
-    r.reps = QMC_SAMPLING_MIN_REPS; /* qmc__auto_first_n assumes it */
-    r.n = spec->n_given ? spec->sampling.n : qmc__auto_first_n(spec->max_evals, g != NULL);
-    const int jumps = f->smoothness >= QMC_SMOOTH_DISCONTINUOUS;
-    if (jumps || r.n >= AUTO_SPLIT_MIN_N) {
-        r.split_net = 1;
-        reason_append(reason, bytes, "; its ", r.reps,
-                      jumps ? " replicates split one net (more accurate with jumps; a "
-                              "conservative bar)"
-                            : " replicates split one net (more accurate than independent "
-                              "nets; a conservative bar)");
-    }
-    return r;
-}
-
-/* auto's RQMC: a VEGAS map when its pilot pays (no control variate), then
- * the replicates; *f becomes f over the map, *map is the caller's to free,
- * and the pilot's evaluations leave s->max_evals. */
-static int auto_rqmc_setup(qmc_integrate_spec *s, const qmc_integrand **f,
-                           const qmc_integrand *g, qmc_integrate_report *rep, qmc__vmap **map,
-                           uint64_t *pilot, qmc__msg *why)
-{
-    *map = NULL;
-    *pilot = 0;
-    if (!g) {
-        int err = auto_map(s, *f, map, pilot, rep->auto_reason, sizeof rep->auto_reason);
-        if (err) {
-            qmc__msg_str(why, err == QMC_ECANCELED ? "interrupted"
-                                                   : "out of memory for the VEGAS map");
-            return err;
-        }
-        s->max_evals -= *pilot;
-    }
-    /* f's own smoothness: f J over a map declares the jumps at its bin
-     * edges, but they are not what the split is for. */
-    s->sampling = auto_rqmc(s, *f, g, rep->auto_reason, sizeof rep->auto_reason);
-    if (*map)
-        *f = qmc__vmap_integrand(*map);
-    s->n_given = 1;
-    return 0;
-}
-
 /* Below 2 strata an axis "stratified" is one stratum of one point at best
  * (k = 1: the largest k^d <= n at d >= 13 for the default 4096 points):
  * an infinite bar that looked like a result.  Refused instead. */
@@ -505,6 +319,49 @@ static int run_sampling_method(const qmc_integrate_spec *s, const qmc_integrand 
 static int run_rule(const qmc_integrate_spec *s, const qmc_integrand *f,
                     qmc_integrate_report *rep, qmc__msg *why);
 
+/* Whether auto may hand the rest of the budget to RQMC after a rule that
+ * spent `spent`: half of it or more left, and room for RQMC's smallest
+ * round (a rule that spent most of it keeps its flagged answer rather than
+ * trade it for a thinner one). */
+static int auto_budget_left(const qmc_integrate_spec *spec, uint64_t spent)
+{
+    return spec->method == QMC_METHOD_AUTO && spent <= spec->max_evals / 2 &&
+           spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16;
+}
+
+/*
+ * auto's rule whose bar is still in doubt after every check it had
+ * (error_unreliable: a declared kink or jump that neither Gauss-Kronrod
+ * from declared breaks nor the pilot could confirm, or a bar Gauss-Kronrod
+ * refuted), with the budget left: RQMC with the rest, whose replicates
+ * need no smoothness for their bar, vouches for it or replaces it
+ * (auto_witness).  The rule's flag was no false alarm:
+ * over 100 random kink positions of the matrix's genz-continuous in 3D,
+ * auto's cubature missed by more than 3 bars 26 times, every time flagged,
+ * and carried the flag on the 74 others (rule_need_scan).  Not on a
+ * declared singularity, where RQMC's variance may be infinite and
+ * Gauss-Kronrod's flagged answer is the better one, nor on non-finite
+ * values (the singularity hand-off above handles Gauss-Kronrod's).
+ */
+static int auto_replaces_doubt(const qmc_integrate_spec *spec, const qmc_integrand *f,
+                               const qmc_result *res)
+{
+    return (res->flags & QMC_FLAG_ERROR_UNRELIABLE) && !(res->flags & QMC_FLAG_NONFINITE) &&
+           f->smoothness < QMC_SMOOTH_SINGULAR && auto_budget_left(spec, res->evals);
+}
+
+/* lead, the evaluations spent, what they showed, and the hand-off, onto
+ * auto's reason. */
+static void auto_reason_handoff(char *reason, size_t bytes, const char *lead, uint64_t spent,
+                                const char *what)
+{
+    qmc__auto_reason_append(reason, bytes, lead, spent, what);
+    const size_t len = strlen(reason);
+    qmc__msg m;
+    qmc__msg_init(&m, reason + len, bytes - len);
+    qmc__msg_str(&m, ": rqmc with the rest of the budget");
+}
+
 static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
                           const qmc_integrand *g, qmc_block_runner runner, void *runner_ctx,
                           qmc_integrate_report *rep, char *why, size_t why_bytes);
@@ -519,6 +376,100 @@ int qmc_integrate(const qmc_integrate_spec *spec, const qmc_integrand *f,
     if (err == 0 && f->audit)
         rep->res.flags |= f->audit(f->ctx, &rep->res);
     return err;
+}
+
+/* auto's rule result in rep, replaced by RQMC on f with the rest of
+ * spec's budget (s: the rule's spec, becomes RQMC's); every evaluation
+ * counted, and the rule's non-finite values too (they are left out of
+ * the answer: said). */
+static int auto_rqmc_rest(const qmc_integrate_spec *spec, qmc_integrate_spec *s,
+                          const qmc_integrand *f, const qmc_integrand *g,
+                          qmc_block_runner runner, void *runner_ctx, qmc_integrate_report *rep,
+                          qmc__msg *m)
+{
+    const uint64_t spent = rep->res.evals, nonfinite_spent = rep->res.nonfinite;
+    s->method = QMC_METHOD_RQMC;
+    s->max_evals = spec->max_evals - spent;
+    s->sampling = spec->sampling;
+    s->n_given = spec->n_given;
+    memset(&rep->res, 0, sizeof rep->res);
+    rep->detail[0] = '\0';
+    rep->method_used = QMC_METHOD_RQMC;
+    qmc__vmap *map = NULL;
+    uint64_t pilot = 0;
+    int err = qmc__auto_rqmc_setup(s, &f, g, rep, &map, &pilot, m);
+    if (err)
+        return err;
+    err = run_sampling_method(s, f, g, runner, runner_ctx, rep, m);
+    rep->res.evals += pilot + spent;
+    rep->res.nonfinite += nonfinite_spent;
+    qmc__vmap_free(map);
+    return err;
+}
+
+/*
+ * auto's rule whose bar stayed in doubt, then RQMC with the rest of the
+ * budget as a witness that shares none of its nodes: when RQMC vouches
+ * for the rule's bar by the pilot's test (rule_pilot.h: the truth within
+ * 2 bars whenever RQMC's 99% interval holds; the bar raised to what RQMC
+ * resolves when that is coarser), the rule's estimate stands, without the
+ * flag - on the 2D kinks of bench_integrate it was 4e-13 of int |f| where
+ * RQMC's own was 2e-8.  When RQMC is off the rule by more than its noise,
+ * or Gauss-Kronrod refuted the bar, RQMC's answer replaces the rule's.  A
+ * witness with a flag of its own neither vouches nor replaces: the rule's
+ * flagged answer stays (on 4D kinks at 1e4 the thin RQMC was the worse
+ * answer, 5 misses in 100 against the rule's 0).  A witness that fell
+ * short of the tolerance itself (not_converged) vouches at its own
+ * resolution, and the answer carries its shortfall.
+ */
+static int auto_witness(const qmc_integrate_spec *spec, qmc_integrate_spec *s,
+                        const qmc_integrand *f, const qmc_integrand *g, qmc_block_runner runner,
+                        void *runner_ctx, int refuted, qmc_integrate_report *rep, qmc__msg *m)
+{
+    qmc_result rule = rep->res;
+    const qmc_method rule_method = rep->method_used;
+    const double tol = qmc__rule_tolerance(s, &rule);
+    char detail[sizeof rep->detail];
+    memcpy(detail, rep->detail, sizeof detail);
+    /* at the rule's scale, so that its sums hold wherever the rule's did
+     * (scaled_integrand.h); its answer, if it replaces the rule's, in f's
+     * units */
+    qmc__scaled_integrand sf;
+    qmc__scaled_integrand_init(&sf, f, &rule);
+    int err = auto_rqmc_rest(spec, s, &sf.g, g, runner, runner_ctx, rep, m);
+    qmc__unscale_result(&rep->res, sf.e);
+    const qmc_result *w = &rep->res;
+    if (err || refuted)
+        return err;
+    const uint32_t short_of_tol = QMC_FLAG_NOT_CONVERGED | QMC_FLAG_BUDGET;
+    const int clean = !(w->flags & ~short_of_tol) && w->error_kind == QMC_ERROR_STDERR &&
+                      isfinite(w->estimate) && isfinite(w->error);
+    const double t = qmc_student_t_quantile(0.99, (double)s->sampling.reps - 1.0);
+    const double bar = rule.error;
+    const char *said;
+    if (!clean) {
+        said = "; rqmc carried flags of its own and vouched for nothing: the rule's flagged "
+               "answer";
+    } else if (qmc__rule_bar_vouched(&rule, w, t,
+                                     (w->flags & QMC_FLAG_NOT_CONVERGED) ? INFINITY : tol)) {
+        said = rule.error != bar ? "; rqmc vouched for the rule's bar raised to its own "
+                                   "resolution: the rule's answer"
+                                 : "; rqmc vouched for the rule's bar: the rule's answer";
+        rule.flags &= ~QMC_FLAG_ERROR_UNRELIABLE;
+        if (!(rule.error <= tol))
+            rule.flags |= w->flags & short_of_tol;
+    } else {
+        return 0; /* off the rule by more than its noise: rqmc's answer */
+    }
+    rule.evals = w->evals;
+    rep->res = rule;
+    rep->method_used = rule_method;
+    memcpy(rep->detail, detail, sizeof detail);
+    const size_t len = strlen(rep->auto_reason);
+    qmc__msg r;
+    qmc__msg_init(&r, rep->auto_reason + len, sizeof rep->auto_reason - len);
+    qmc__msg_str(&r, said);
+    return 0;
 }
 
 static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f,
@@ -566,10 +517,15 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
         if (s.tol_abs == 0 && s.tol_rel == 0)
             s.tol_rel = 1e-6; /* auto always stops adaptively */
         if (s.method == QMC_METHOD_RQMC) {
-            int err = auto_rqmc_setup(&s, &f, g, rep, &map, &pilot, &m);
+            int err = qmc__auto_rqmc_setup(&s, &f, g, rep, &map, &pilot, &m);
             if (err)
                 return err;
         }
+        /* Cubature's bar on a declared kink rests on its own nodes, and
+         * only RQMC with the rest can vouch for it at auto's tolerance
+         * (auto_witness): half the budget is kept for that. */
+        if (s.method == QMC_METHOD_CUBATURE && f->smoothness != QMC_SMOOTH_ANALYTIC)
+            s.max_evals = spec->max_evals / 2;
     }
     if (is_sampling(s.method)) {
         int err = run_sampling_method(&s, f, g, runner, runner_ctx, rep, &m);
@@ -595,7 +551,6 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
      * at least half the budget is left (a rule that saw nothing stops
      * after a few dozen nodes); a rule that spent most of it unresolved
      * keeps its flagged answer rather than trade it for a thinner one. */
-    const uint64_t spent = rep->res.evals;
     const uint32_t got = rep->res.flags;
     const int unresolved = (got & QMC_FLAG_UNRESOLVED) && !(got & QMC_FLAG_NONFINITE);
     /* auto's Gauss-Kronrod on a declared singularity that evaluated f on
@@ -603,36 +558,30 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
     const int on_singularity = (got & QMC_FLAG_NONFINITE) &&
                                s.method == QMC_METHOD_GAUSS_KRONROD &&
                                f->smoothness == QMC_SMOOTH_SINGULAR;
-    const int to_rqmc = spec->method == QMC_METHOD_AUTO && (unresolved || on_singularity) &&
-                        spent <= spec->max_evals / 2 &&
-                        spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16;
+    if ((unresolved || on_singularity) && auto_budget_left(spec, rep->res.evals)) {
+        auto_reason_handoff(rep->auto_reason, sizeof rep->auto_reason, "; its ",
+                            rep->res.evals,
+                            on_singularity ? " nodes included the singularity (a non-finite "
+                                             "value)"
+                                           : " nodes left the integrand unresolved (levels "
+                                             "agreeing near zero)");
+        return auto_rqmc_rest(spec, &s, f, g, runner, runner_ctx, rep, &m);
+    }
     /* A bar still in doubt, kept: checked by points off every node of the
-     * rule (rule_pilot.h).  Not when auto is about to replace it, nor
-     * when Gauss-Kronrod has shown it wrong. */
-    if (!to_rqmc)
-        return refuted ? 0 : qmc__rule_pilot(&s, f, &rep->res, why, why_bytes);
-    reason_append(rep->auto_reason, sizeof rep->auto_reason, "; its ", spent,
-                  on_singularity ? " nodes included the singularity (a non-finite value): "
-                                   "rqmc with the rest of the budget"
-                                 : " nodes left the integrand unresolved (levels agreeing "
-                                   "near zero): rqmc with the rest of the budget");
-    s.method = QMC_METHOD_RQMC;
-    s.max_evals = spec->max_evals - spent;
-    s.sampling = spec->sampling;
-    s.n_given = spec->n_given;
-    /* the rule's non-finite values are left out of the answer too: said */
-    const uint64_t nonfinite_spent = rep->res.nonfinite;
-    memset(&rep->res, 0, sizeof rep->res);
-    rep->detail[0] = '\0';
-    rep->method_used = QMC_METHOD_RQMC;
-    err = auto_rqmc_setup(&s, &f, g, rep, &map, &pilot, &m);
-    if (err)
-        return err;
-    err = run_sampling_method(&s, f, g, runner, runner_ctx, rep, &m);
-    rep->res.evals += pilot + spent;
-    rep->res.nonfinite += nonfinite_spent;
-    qmc__vmap_free(map);
-    return err;
+     * rule (rule_pilot.h).  Not when Gauss-Kronrod has shown it wrong. */
+    if (!refuted) {
+        err = qmc__rule_pilot(&s, f, &rep->res, why, why_bytes);
+        if (err)
+            return err;
+    }
+    /* auto: RQMC with the rest, to vouch for the bar or replace it */
+    if (!auto_replaces_doubt(spec, f, &rep->res))
+        return 0;
+    auto_reason_handoff(rep->auto_reason, sizeof rep->auto_reason, "; after ", rep->res.evals,
+                        refuted ? " evaluations Gauss-Kronrod from the declared breaks showed "
+                                  "its bar wrong"
+                                : " evaluations nothing off its nodes had confirmed its bar");
+    return auto_witness(spec, &s, f, g, runner, runner_ctx, refuted, rep, &m);
 }
 
 /* A deterministic rule (s->method is one); a declared kink or jump is

@@ -9,6 +9,7 @@
 #include "interrupt.h"
 #include "msg.h"
 #include "rule_evidence.h"
+#include "scaled_integrand.h"
 #include "sampling_impl.h"
 #include "rule_pilot.h"
 #include "qmc/quad.h"
@@ -93,7 +94,7 @@ uint64_t qmc__rule_pilot_bytes(uint64_t max_evals, uint32_t dims)
  * must still meet it: an adaptive rule never claims a tolerance the
  * evidence does not support, so it keeps its bar and its flag instead (a
  * session still ends cannot_tell). */
-static double rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
+double qmc__rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
 {
     double tol_abs = s->tol_abs, tol_rel = s->tol_rel;
     if (tol_abs == 0.0 && tol_rel == 0.0) {
@@ -111,62 +112,6 @@ static double rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
     return fmax(tol_abs, tol_rel * fabs(res->estimate));
 }
 
-/*
- * The pilot sees f scaled by 2^-e, e the binary exponent of the rule's
- * integral, when that lies beyond 2^+-SCALE_PAST: a radiance of 1e308
- * (overflow-light) overflowed the pilot's sums of values and of squares,
- * so its own nonfinite flag vouched for nothing, while the rule's sums
- * held.  Scaling by a power of two is exact, and so is every sum, mean and
- * spread of the scaled values, short of underflow: the pilot's result,
- * scaled back, is the one it would have given with room for its sums.
- * The integrand's audit sees the result scaled back.
- */
-#define SCALE_PAST 128
-
-typedef struct scaled_integrand {
-    const qmc_integrand *f;
-    int e;          /* f's values are multiplied by 2^-e */
-    double factor;  /* 2^-e, exact */
-} scaled_integrand;
-
-static void scaled_eval(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
-{
-    const scaled_integrand *s = ctx;
-    s->f->eval(s->f->ctx, x, n, dims, out);
-    for (size_t i = 0; i < n; i++)
-        out[i] *= s->factor;
-}
-
-/* res's values in f's own units: every quantity measured in them scaled
- * by 2^e (the standard error too; counts and flags are unchanged). */
-static void unscale_result(qmc_result *r, int e)
-{
-    r->estimate = ldexp(r->estimate, e);
-    r->error = ldexp(r->error, e);
-    r->ci_low = ldexp(r->ci_low, e);
-    r->ci_high = ldexp(r->ci_high, e);
-    r->abs_integral = ldexp(r->abs_integral, e);
-}
-
-static uint32_t scaled_audit(const void *ctx, const qmc_result *res)
-{
-    const scaled_integrand *s = ctx;
-    qmc_result r = *res;
-    unscale_result(&r, s->e);
-    return s->f->audit(s->f->ctx, &r);
-}
-
-/* The exponent to scale f by for a rule result of this size (0: none). */
-static int pilot_scale_exponent(const qmc_result *res)
-{
-    const double size = fmax(fabs(res->estimate), res->abs_integral);
-    if (!(size > 0.0) || !isfinite(size))
-        return 0;
-    /* a subnormal integral's exponent reaches -1074, and 2^1074 is inf */
-    const int e = ilogb(size) < -1022 ? -1022 : ilogb(size);
-    return e > SCALE_PAST || e < -SCALE_PAST ? e : 0;
-}
-
 /* One pilot of `evals` evaluations: 0 with *r and *t (its result, in f's
  * units, and the 99% quantile for its bar), QMC_ECANCELED with why set,
  * or 1 when it failed to run (too many dims for Sobol, memory).  Its
@@ -176,21 +121,12 @@ static int run_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, uint64
 {
     qmc_integrate_spec p;
     pilot_spec(s, f->smoothness, evals, &p);
-    const int e = pilot_scale_exponent(res);
-    scaled_integrand sf = {f, e, ldexp(1.0, -e)};
-    qmc_integrand g = *f;
-    if (e != 0) {
-        g.eval = scaled_eval;
-        g.ctx = &sf;
-        g.exact = ldexp(f->exact, -e);
-        g.abs_integral = ldexp(f->abs_integral, -e);
-        g.audit = f->audit ? scaled_audit : NULL;
-    }
+    qmc__scaled_integrand sf;
+    qmc__scaled_integrand_init(&sf, f, res);
     qmc_integrate_report rep;
     char pwhy[160];
-    int err = qmc_integrate(&p, &g, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
-    if (e != 0)
-        unscale_result(&rep.res, e);
+    int err = qmc_integrate(&p, &sf.g, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
+    qmc__unscale_result(&rep.res, sf.e);
     res->evals += rep.res.evals;
     if (err == QMC_ECANCELED) {
         qmc__msg m;
@@ -247,7 +183,7 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
     uint64_t evals = qmc__rule_pilot_evals(res->evals, left);
     if (evals == 0)
         return 0;
-    const double tol = rule_tolerance(s, res);
+    const double tol = qmc__rule_tolerance(s, res);
     if (isfinite(tol) && evals >= 2 * PROBE_EVALS) {
         /* the pilot after the probe: at least PROBE_EVALS are left for it */
         evals = qmc__rule_pilot_evals(res->evals, left - PROBE_EVALS);
@@ -264,17 +200,22 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
     if (err || r.flags != 0 || r.error_kind != QMC_ERROR_STDERR || !isfinite(r.estimate) ||
         !isfinite(r.error))
         return 0; /* too many dims for Sobol, or a pilot in doubt itself */
+    if (qmc__rule_bar_vouched(res, &r, t, tol))
+        *clear = QMC_FLAG_ERROR_UNRELIABLE;
+    return 0;
+}
+
+int qmc__rule_bar_vouched(qmc_result *res, const qmc_result *r, double t, double tol)
+{
     const double scale = fmax(fabs(res->estimate), res->abs_integral);
     const double slack = 32.0 * DBL_EPSILON * scale;
-    const double gap = fabs(res->estimate - r.estimate), reach = t * r.error;
-    if (gap + reach <= 2.0 * res->error + slack) {
-        *clear = QMC_FLAG_ERROR_UNRELIABLE; /* the bar as it stands */
-        return 0;
-    }
+    const double gap = fabs(res->estimate - r->estimate), reach = t * r->error;
+    if (gap + reach <= 2.0 * res->error + slack)
+        return 1; /* the bar as it stands */
     if (gap > reach)
-        return 0; /* the pilot sees the rule off by more than its own noise */
-    /* The pilot agrees within its own resolution, which is coarser than
-     * the rule's claim: the bar becomes what the pilot can vouch for. */
+        return 0; /* the witness sees the rule off by more than its own noise */
+    /* The witness agrees within its own resolution, which is coarser than
+     * the rule's claim: the bar becomes what the witness can vouch for. */
     const double bar = 0.5 * (gap + reach);
     if (!(bar <= tol))
         return 0;
@@ -285,8 +226,7 @@ static int pilot_judges(const qmc_integrate_spec *s, const qmc_integrand *f, qmc
      * resolve the integrand, as rule_evidence.h's test would have. */
     if (!(bar < QMC__UNRESOLVED_SHARE * fmax(fabs(res->estimate), res->abs_integral)))
         res->flags |= QMC_FLAG_UNRESOLVED;
-    *clear = QMC_FLAG_ERROR_UNRELIABLE;
-    return 0;
+    return 1;
 }
 
 int qmc__rule_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,

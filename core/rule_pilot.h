@@ -67,6 +67,20 @@
 int qmc__rule_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, qmc_result *res,
                     char *why, size_t why_bytes);
 
+/* The tolerance rule s->method stopped on with result res: the caller's,
+ * else cubature's and Clenshaw-Curtis's QMC__CUBATURE_TOL_REL and
+ * Gauss-Kronrod's default, relative to |res->estimate|; INFINITY for a
+ * tensor grid, which has none. */
+double qmc__rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res);
+
+/* The test above, of rule result res against a witness r that shares none
+ * of its nodes (a clean randomized result: estimate, standard error) with
+ * t the quantile for r's interval and tol the tolerance the rule stopped
+ * on (INFINITY: none).  1 when r vouches for res's bar - res->error may
+ * then have been raised, and QMC_FLAG_UNRESOLVED set - else 0, res as it
+ * was.  Touches no other flag. */
+int qmc__rule_bar_vouched(qmc_result *res, const qmc_result *r, double t, double tol);
+
 /* The evaluations of the pilot after a rule that spent rule_evals and
  * left `left` (0: none fits). */
 uint64_t qmc__rule_pilot_evals(uint64_t rule_evals, uint64_t left);

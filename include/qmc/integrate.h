@@ -48,7 +48,11 @@ typedef enum qmc_method {
  * rule for analytic ones when the budget buys 17 points an axis; adaptive
  * cubature up to this many dimensions for integrands declared analytic
  * once the budget buys one region (4 dimensions and 50 regions for
- * continuous ones); RQMC otherwise (core/auto_choice.c). */
+ * continuous ones); RQMC otherwise (core/auto_choice.c).  A rule that
+ * leaves half the budget or more with its bar unresolved, or in doubt
+ * after every check off its nodes (a declared kink or jump), is followed
+ * by RQMC with the rest, which vouches for the rule's bar or replaces its
+ * answer (docs/FLAGS.md, issue 23 round seven); the reason says which. */
 #define QMC_AUTO_CUBATURE_MAX_DIMS 10u
 
 /* A deterministic rule's bar on a 1D integrand that declares where its

@@ -9,6 +9,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "rule_run.h"
 #include "qmc/testfn.h"
@@ -49,6 +50,8 @@ rule_outcome rule_run_spec_scaled(const char *name, uint32_t dims, const double 
     o.err = qmc_integrate(s, &g, NULL, NULL, NULL, &rep, why, sizeof why);
     o.res = rep.res;
     o.truth = g.exact;
+    o.method_used = rep.method_used;
+    memcpy(o.auto_reason, rep.auto_reason, sizeof o.auto_reason);
     qmc_testfn_free(fn);
     return o;
 }

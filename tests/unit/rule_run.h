@@ -15,6 +15,8 @@ typedef struct rule_outcome {
     int err;         /* qmc_integrate's return */
     qmc_result res;
     double truth;    /* the test function's exact integral */
+    qmc_method method_used;                  /* auto's choice, else the method */
+    char auto_reason[QMC_AUTO_REASON_BYTES]; /* why, for auto */
 } rule_outcome;
 
 /* name on dims (a, u: dims parameters each, or NULL) by spec s. */

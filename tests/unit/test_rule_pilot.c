@@ -30,6 +30,15 @@
  *   the hook firing inside the pilot               QMC_ECANCELED
  *   qmc_integrate_memory_bytes                     covers the pilot's sums,
  *                                                    workspace, sequences
+ *   auto on the kink at 2e7: cubature, the bar     rqmc with the rest vouches:
+ *     in doubt                                       cubature's estimate, no
+ *                                                    flag, tolerance met, covers
+ *   the same where cubature is 88 bars off         rqmc's answer instead, no
+ *                                                    flag, covers
+ *   the same at 3e5 and 1e4                        cubature within half the
+ *                                                    budget, then rqmc; no flag
+ *   a 4D kink at 1e4, rqmc flagged itself          the rule's flagged answer
+ *   auto on x^-0.99 (Gauss-Kronrod flagged)        the rule's answer, no rqmc
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -39,6 +48,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "hook.h"
@@ -318,6 +328,151 @@ static void test_memory_covers_the_pilot(void **state)
         }
 }
 
+/* auto on f with seed 7 within budget (its own tolerance, 1e-6). */
+static rule_outcome auto_run(const char *name, uint32_t d, const double *a, const double *u,
+                             uint64_t budget)
+{
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_AUTO;
+    s.max_evals = budget;
+    s.sampling.seed = 7;
+    rule_outcome o = rule_run_spec(name, d, a, u, &s);
+    assert_int_equal(o.err, 0);
+    return o;
+}
+
+/* cubature alone on the kink at auto's tolerance, 1e-6: a bar no pilot
+ * can reach, flagged */
+static rule_outcome cubature_at_auto_tol(const double *a, const double *u)
+{
+    qmc_integrate_spec c;
+    qmc_integrate_spec_init(&c);
+    c.method = QMC_METHOD_CUBATURE;
+    c.tol_rel = 1e-6;
+    c.max_evals = 20000000;
+    c.sampling.seed = 7;
+    rule_outcome rule = rule_run_spec("genz-continuous", 3, a, u, &c);
+    assert_int_equal(rule.err, 0);
+    assert_true(rule.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    return rule;
+}
+
+/* auto's reason after that rule, and the RQMC that followed it */
+static void assert_handed_on(const rule_outcome *o, const rule_outcome *rule)
+{
+    assert_true(strncmp(o->auto_reason, "cubature: ", 10) == 0);
+    char after[96];
+    snprintf(after, sizeof after, "; after %llu evaluations nothing off its nodes",
+             (unsigned long long)rule->res.evals);
+    assert_non_null(strstr(o->auto_reason, after));
+    assert_non_null(strstr(o->auto_reason, "rqmc with the rest of the budget"));
+    assert_int_equal(o->res.flags, 0);
+    assert_true(rule_covers(o));
+    assert_true(o->res.evals > rule->res.evals && o->res.evals <= 20000000);
+}
+
+static void test_auto_rqmc_vouches_for_the_rule(void **state)
+{
+    (void)state;
+    rule_outcome rule = cubature_at_auto_tol(a3, u3);
+    /* auto chose that rule and, with nearly all the budget left, ran
+     * RQMC with the rest, which agreed: the rule's answer, unflagged */
+    rule_outcome o = auto_run("genz-continuous", 3, a3, u3, 20000000);
+    assert_true(fabs(o.truth - continuous_truth(3, a3, u3)) <= 1e-14 * o.truth);
+    assert_handed_on(&o, &rule);
+    assert_int_equal(o.method_used, QMC_METHOD_CUBATURE);
+    assert_non_null(strstr(o.auto_reason, "; rqmc vouched for the rule's bar"));
+    assert_true(o.res.estimate == rule.res.estimate);
+    assert_true(o.res.error >= rule.res.error && o.res.error <= 1e-6 * fabs(o.res.estimate));
+    /* the same request, the same bits */
+    rule_outcome again = auto_run("genz-continuous", 3, a3, u3, 20000000);
+    assert_true(test_same_result(&o.res, &again.res));
+}
+
+static void test_auto_rqmc_replaces_a_wrong_rule(void **state)
+{
+    (void)state;
+    /* here cubature is 88 of its bars off, flagged */
+    const double a[] = {5, 3, 7}, u[] = {0.5487, 0.7505, 0.7473};
+    rule_outcome rule = cubature_at_auto_tol(a, u);
+    assert_true(fabs(rule.truth - continuous_truth(3, a, u)) <= 1e-14 * rule.truth);
+    assert_true(fabs(rule.res.estimate - rule.truth) > 50 * rule.res.error);
+    /* RQMC disagrees beyond its noise: its answer replaces the rule's */
+    rule_outcome o = auto_run("genz-continuous", 3, a, u, 20000000);
+    assert_handed_on(&o, &rule);
+    assert_int_equal(o.method_used, QMC_METHOD_RQMC);
+    assert_null(strstr(o.auto_reason, "vouched"));
+    assert_int_equal(o.res.error_kind, QMC_ERROR_STDERR);
+    assert_true(o.res.ci_high - o.res.estimate <= 1e-6 * fabs(o.res.estimate));
+}
+
+static void test_auto_cubature_keeps_half_for_rqmc(void **state)
+{
+    (void)state;
+    /* cubature meets auto's tolerance on the kink in some 180000
+     * evaluations; of a budget of 3e5 auto gives it half, and RQMC the
+     * rest: no flag either way; at 1e4 as well */
+    const uint64_t budgets[] = {300000, 10000};
+    for (size_t i = 0; i < 2; i++) {
+        rule_outcome o = auto_run("genz-continuous", 3, a3, u3, budgets[i]);
+        const char *after = strstr(o.auto_reason, "; after ");
+        assert_non_null(after);
+        unsigned long long spent = 0;
+        assert_int_equal(sscanf(after, "; after %llu evaluations", &spent), 1);
+        assert_true(spent > 0 && spent <= budgets[i] / 2);
+        assert_non_null(strstr(o.auto_reason, "rqmc with the rest of the budget"));
+        assert_false(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+        assert_true(rule_covers(&o));
+        assert_true(o.res.evals > spent && o.res.evals <= budgets[i]);
+    }
+}
+
+static void test_auto_witness_in_doubt_vouches_for_nothing(void **state)
+{
+    (void)state;
+    /* a 4D kink at 1e4: RQMC's 2048 points with the rest carry flags of
+     * their own; the rule's flagged answer stays (over 100 positions the
+     * thin RQMC missed 5 times where the rule missed none) */
+    const double a[] = {5, 5, 5, 5}, u[] = {0.4, 0.4, 0.4, 0.4};
+    rule_outcome o = auto_run("genz-continuous", 4, a, u, 10000);
+    assert_int_equal(o.method_used, QMC_METHOD_CUBATURE);
+    assert_non_null(strstr(o.auto_reason, "rqmc carried flags of its own"));
+    assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    unsigned long long spent = 0;
+    assert_int_equal(sscanf(strstr(o.auto_reason, "; after "), "; after %llu", &spent), 1);
+    assert_true(o.res.evals > spent && o.res.evals <= 10000);
+}
+
+/* x^-0.99 on (0,1], declared singular: 100 in all. */
+static void pow_099(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
+{
+    (void)ctx;
+    (void)dims;
+    for (size_t i = 0; i < n; i++)
+        out[i] = pow(x[i], -0.99);
+}
+
+static void test_auto_keeps_a_singular_rule(void **state)
+{
+    (void)state;
+    /* Gauss-Kronrod does not converge on x^-0.99 and is flagged; RQMC's
+     * variance there is infinite, so auto keeps the rule's answer */
+    qmc_integrand f = {.eval = pow_099, .dims = 1, .smoothness = QMC_SMOOTH_SINGULAR,
+                       .has_exact = 1, .exact = 100.0, .name = "x^-0.99"};
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_AUTO;
+    s.max_evals = 1000000;
+    qmc_integrate_report rep;
+    char why[256];
+    assert_int_equal(qmc_integrate(&s, &f, NULL, NULL, NULL, &rep, why, sizeof why), 0);
+    assert_int_equal(rep.method_used, QMC_METHOD_GAUSS_KRONROD);
+    assert_true(rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    assert_true(rep.res.evals <= 500000);
+    assert_null(strstr(rep.auto_reason, "rest of the budget"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -334,6 +489,11 @@ int main(void)
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_cancelled_in_the_pilot),
         cmocka_unit_test(test_memory_covers_the_pilot),
+        cmocka_unit_test(test_auto_rqmc_vouches_for_the_rule),
+        cmocka_unit_test(test_auto_rqmc_replaces_a_wrong_rule),
+        cmocka_unit_test(test_auto_cubature_keeps_half_for_rqmc),
+        cmocka_unit_test(test_auto_witness_in_doubt_vouches_for_nothing),
+        cmocka_unit_test(test_auto_keeps_a_singular_rule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -183,12 +183,25 @@ static void set_auto_budget(qmc_integrate_spec *s)
     s->tol_rel = 1e-3;
 }
 
+/* The method auto chose first: its reason's first word.  (The method it
+ * ended with may be RQMC after the rule, with the rest of the budget.) */
 static qmc_method auto_picks(const char *name, uint32_t dims, uint64_t budget)
 {
     auto_budget = budget;
     run_out o = run(name, dims, QMC_METHOD_AUTO, set_auto_budget);
     assert_int_equal(o.err, 0);
-    return o.rep.method_used;
+    char first[32];
+    const size_t len = strcspn(o.rep.auto_reason, ": ");
+    assert_true(len < sizeof first);
+    memcpy(first, o.rep.auto_reason, len);
+    first[len] = '\0';
+    qmc_method m;
+    assert_int_equal(qmc_method_parse(first, &m), 0);
+    if (m != QMC_METHOD_RQMC && o.rep.method_used == QMC_METHOD_RQMC)
+        assert_non_null(strstr(o.rep.auto_reason, "rqmc with the rest of the budget"));
+    else
+        assert_int_equal(o.rep.method_used, m);
+    return m;
 }
 
 static void test_auto_choice(void **state)
