@@ -189,8 +189,8 @@ uint64_t qmc_integrate_memory_bytes(const qmc_integrate_spec *spec, uint32_t dim
          * allocates exactly its workspace: cubature's regions and the
          * Clenshaw-Curtis grid within max_memory), or RQMC, which it may
          * always pick (a non-smooth integrand, a control variate) and
-         * which follows an unresolved rule: the rule's workspace is freed
-         * before it starts, so the larger of the two. */
+         * which follows a rule left unresolved or in doubt: the rule's
+         * workspace is freed before it starts, so the larger of the two. */
         uint64_t rule = 0;
         const qmc_method rules[] = {QMC_METHOD_GAUSS_KRONROD, QMC_METHOD_CLENSHAW_CURTIS,
                                     QMC_METHOD_CUBATURE};

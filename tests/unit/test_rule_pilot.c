@@ -38,6 +38,10 @@
  *   the same at 3e5 and 1e4                        cubature within half the
  *                                                    budget, then rqmc; no flag
  *   a 4D kink at 1e4, rqmc flagged itself          the rule's flagged answer
+ *   the caller's n: a refused round; n not 2^k     the rule's flagged answer;
+ *                                                    no witness
+ *   NaN on a slab only rqmc's points reach         counted, nonfinite raised
+ *   a caller's tol_abs at 2^600                    the result at 2^0 times 2^600
  *   auto on x^-0.99 (Gauss-Kronrod flagged)        the rule's answer, no rqmc
  */
 #include <stdarg.h>
@@ -444,6 +448,91 @@ static void test_auto_witness_in_doubt_vouches_for_nothing(void **state)
     assert_true(o.res.evals > spent && o.res.evals <= 10000);
 }
 
+static void test_auto_witness_refused_keeps_the_rule(void **state)
+{
+    (void)state;
+    /* the caller's n: 8 x 2^19 points do not fit what cubature left of
+     * 3e6, so RQMC's round is refused; the rule's flagged answer stays
+     * (it was an error), every evaluation (the VEGAS pilot's) counted */
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_AUTO;
+    s.max_evals = 3000000;
+    s.sampling.seed = 7;
+    s.sampling.n = UINT64_C(1) << 19;
+    s.n_given = 1;
+    rule_outcome o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(o.method_used, QMC_METHOD_CUBATURE);
+    assert_non_null(strstr(o.auto_reason, "rqmc could not run on the rest"));
+    assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    unsigned long long spent = 0;
+    assert_int_equal(sscanf(strstr(o.auto_reason, "; after "), "; after %llu", &spent), 1);
+    assert_true(o.res.evals > spent && o.res.evals <= 3000000);
+    /* an n that is no power of two makes no net: no witness at all */
+    s.sampling.n = 3000;
+    o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
+    assert_int_equal(o.err, 0);
+    assert_null(strstr(o.auto_reason, "rest of the budget"));
+    assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+}
+
+/* The kink of a3, u3 in 2D, NaN on a slab of x0 that cubature's nodes
+ * miss and RQMC's points do not. */
+static void kink_with_nan(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
+{
+    (void)ctx;
+    for (size_t i = 0; i < n; i++) {
+        const double *p = x + i * dims;
+        out[i] = p[0] >= 0.3141592 && p[0] < 0.3142592
+                     ? NAN
+                     : exp(-a3[0] * fabs(p[0] - u3[0]) - a3[1] * fabs(p[1] - u3[1]));
+    }
+}
+
+static void test_auto_witness_counts_its_nonfinite(void **state)
+{
+    (void)state;
+    qmc_integrand f = {.eval = kink_with_nan, .dims = 2, .smoothness = QMC_SMOOTH_CONTINUOUS,
+                       .name = "kink with a NaN slab"};
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_AUTO;
+    s.max_evals = 200000;
+    s.sampling.seed = 7;
+    qmc_integrate_report rep;
+    char why[256];
+    assert_int_equal(qmc_integrate(&s, &f, NULL, NULL, NULL, &rep, why, sizeof why), 0);
+    /* whichever answer stands, the witness's NaNs are counted and said */
+    assert_non_null(strstr(rep.auto_reason, "rqmc with the rest of the budget"));
+    assert_true(rep.res.nonfinite > 0);
+    assert_true(rep.res.flags & QMC_FLAG_NONFINITE);
+}
+
+static void test_auto_witness_scales_the_tolerance(void **state)
+{
+    (void)state;
+    /* a caller's absolute tolerance on f times 2^600 is the same request
+     * as on f: the same flags, the bar times 2^600 */
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_AUTO;
+    s.max_evals = 200000;
+    s.sampling.seed = 7;
+    s.tol_abs = 2e-9;
+    rule_outcome o = rule_run_spec_scaled("genz-continuous", 3, a3, u3, &s, 0);
+    s.tol_abs = ldexp(2e-9, 600);
+    rule_outcome x = rule_run_spec_scaled("genz-continuous", 3, a3, u3, &s, 600);
+    assert_int_equal(o.err, 0);
+    assert_int_equal(x.err, 0);
+    assert_non_null(strstr(o.auto_reason, "rqmc with the rest of the budget"));
+    assert_int_equal(x.res.flags, o.res.flags);
+    assert_int_equal(x.method_used, o.method_used);
+    assert_true(x.res.estimate == ldexp(o.res.estimate, 600));
+    assert_true(x.res.error == ldexp(o.res.error, 600));
+    assert_int_equal(x.res.evals, o.res.evals);
+}
+
 /* x^-0.99 on (0,1], declared singular: 100 in all. */
 static void pow_099(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
 {
@@ -493,6 +582,9 @@ int main(void)
         cmocka_unit_test(test_auto_rqmc_replaces_a_wrong_rule),
         cmocka_unit_test(test_auto_cubature_keeps_half_for_rqmc),
         cmocka_unit_test(test_auto_witness_in_doubt_vouches_for_nothing),
+        cmocka_unit_test(test_auto_witness_refused_keeps_the_rule),
+        cmocka_unit_test(test_auto_witness_counts_its_nonfinite),
+        cmocka_unit_test(test_auto_witness_scales_the_tolerance),
         cmocka_unit_test(test_auto_keeps_a_singular_rule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
