@@ -6,6 +6,7 @@
  * call, and sized from the spec (so a request states its memory up front);
  * nothing is allocated per evaluation.
  */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,6 +336,17 @@ static int auto_budget_left(const qmc_integrate_spec *spec, uint64_t spent)
            spec->max_evals - spent >= (uint64_t)QMC_SAMPLING_MIN_REPS * 16;
 }
 
+/* Whether a caller's n (spec->n_given) lets auto's RQMC make a witness
+ * within `budget`: a power of two (anything else is no net, not_pow2),
+ * whose 8 replicates fit.  Always, when auto sizes n itself. */
+static int auto_witness_n_fits(const qmc_integrate_spec *spec, uint64_t budget)
+{
+    const uint64_t n = spec->sampling.n;
+    if (!spec->n_given)
+        return 1;
+    return n != 0 && (n & (n - 1)) == 0 && n <= budget / QMC_SAMPLING_MIN_REPS;
+}
+
 /*
  * auto's rule whose bar is still in doubt after every check it had
  * (error_unreliable: a declared kink or jump that neither Gauss-Kronrod
@@ -352,10 +364,8 @@ static int auto_budget_left(const qmc_integrate_spec *spec, uint64_t spent)
 static int auto_replaces_doubt(const qmc_integrate_spec *spec, const qmc_integrand *f,
                                const qmc_result *res)
 {
-    const uint64_t n = spec->sampling.n;
-    const int net_refused = spec->n_given && (n == 0 || (n & (n - 1)) != 0); /* not_pow2 */
     return (res->flags & QMC_FLAG_ERROR_UNRELIABLE) && !(res->flags & QMC_FLAG_NONFINITE) &&
-           f->smoothness < QMC_SMOOTH_SINGULAR && !net_refused &&
+           f->smoothness < QMC_SMOOTH_SINGULAR && auto_witness_n_fits(spec, spec->max_evals) &&
            auto_budget_left(spec, res->evals);
 }
 
@@ -445,7 +455,8 @@ static int auto_witness(const qmc_integrate_spec *spec, qmc_integrate_spec *s,
      * answer, if it replaces the rule's, in f's units. */
     qmc__scaled_integrand sf;
     qmc__scaled_integrand_init(&sf, f, &rule);
-    s->tol_abs = ldexp(s->tol_abs, -sf.e);
+    if (s->tol_abs > 0.0) /* one that underflows would mean no tolerance */
+        s->tol_abs = fmax(ldexp(s->tol_abs, -sf.e), DBL_TRUE_MIN);
     int err = auto_rqmc_rest(spec, s, &sf.g, g, runner, runner_ctx, rep, m);
     qmc__unscale_result(&rep->res, sf.e);
     const qmc_result *w = &rep->res;
@@ -553,7 +564,8 @@ static int integrate_once(const qmc_integrate_spec *spec, const qmc_integrand *f
          * (auto_witness): half the budget is kept for that, from
          * AUTO_WITNESS_MIN_BUDGET on. */
         if (s.method == QMC_METHOD_CUBATURE && f->smoothness != QMC_SMOOTH_ANALYTIC &&
-            spec->max_evals >= AUTO_WITNESS_MIN_BUDGET)
+            spec->max_evals >= AUTO_WITNESS_MIN_BUDGET &&
+            auto_witness_n_fits(spec, spec->max_evals / 2))
             s.max_evals = spec->max_evals / 2;
     }
     if (is_sampling(s.method)) {

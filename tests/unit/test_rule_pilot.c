@@ -38,8 +38,8 @@
  *   the same at 3e5 and 1e4                        cubature within half the
  *                                                    budget, then rqmc; no flag
  *   a 4D kink at 1e4, rqmc flagged itself          the rule's flagged answer
- *   the caller's n: a refused round; n not 2^k     the rule's flagged answer;
- *                                                    no witness
+ *   the caller's n: a refused round; n too big   the rule's flagged answer;
+ *     for half the budget or not 2^k                 no cap, no witness
  *   NaN on a slab only rqmc's points reach         counted, nonfinite raised
  *   a caller's tol_abs at 2^600                    the result at 2^0 times 2^600
  *   auto on x^-0.99 (Gauss-Kronrod flagged)        the rule's answer, no rqmc
@@ -451,15 +451,16 @@ static void test_auto_witness_in_doubt_vouches_for_nothing(void **state)
 static void test_auto_witness_refused_keeps_the_rule(void **state)
 {
     (void)state;
-    /* the caller's n: 8 x 2^19 points do not fit what cubature left of
-     * 3e6, so RQMC's round is refused; the rule's flagged answer stays
-     * (it was an error), every evaluation (the VEGAS pilot's) counted */
+    /* The caller's n = 2^14: its 8 replicates fit half of 2^18, so
+     * cubature gets that half, and spends it; the VEGAS pilot then leaves
+     * 65536 of the rest, and RQMC's round is refused.  The rule's flagged
+     * answer stays (it was an error), every evaluation counted. */
     qmc_integrate_spec s;
     qmc_integrate_spec_init(&s);
     s.method = QMC_METHOD_AUTO;
-    s.max_evals = 3000000;
+    s.max_evals = UINT64_C(1) << 18;
     s.sampling.seed = 7;
-    s.sampling.n = UINT64_C(1) << 19;
+    s.sampling.n = UINT64_C(1) << 14;
     s.n_given = 1;
     rule_outcome o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
     assert_int_equal(o.err, 0);
@@ -468,13 +469,23 @@ static void test_auto_witness_refused_keeps_the_rule(void **state)
     assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
     unsigned long long spent = 0;
     assert_int_equal(sscanf(strstr(o.auto_reason, "; after "), "; after %llu", &spent), 1);
-    assert_true(o.res.evals > spent && o.res.evals <= 3000000);
-    /* an n that is no power of two makes no net: no witness at all */
-    s.sampling.n = 3000;
-    o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
-    assert_int_equal(o.err, 0);
-    assert_null(strstr(o.auto_reason, "rest of the budget"));
-    assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    assert_true(spent <= s.max_evals / 2);
+    assert_true(o.res.evals > spent && o.res.evals <= s.max_evals);
+    /* an n whose replicates do not fit half the budget, or that is no
+     * power of two (no net): no cap and no witness, the rule's own run */
+    qmc_integrate_spec c = s;
+    c.method = QMC_METHOD_CUBATURE;
+    c.tol_rel = 1e-6;
+    rule_outcome rule = rule_run_spec("genz-continuous", 3, a3, u3, &c);
+    const uint64_t ns[] = {UINT64_C(1) << 15, 3000};
+    for (size_t i = 0; i < 2; i++) {
+        s.sampling.n = ns[i];
+        o = rule_run_spec("genz-continuous", 3, a3, u3, &s);
+        assert_int_equal(o.err, 0);
+        assert_null(strstr(o.auto_reason, "rest of the budget"));
+        assert_true(o.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+        assert_true(test_same_result(&o.res, &rule.res));
+    }
 }
 
 /* The kink of a3, u3 in 2D, NaN on a slab of x0 that cubature's nodes
@@ -531,6 +542,13 @@ static void test_auto_witness_scales_the_tolerance(void **state)
     assert_true(x.res.estimate == ldexp(o.res.estimate, 600));
     assert_true(x.res.error == ldexp(o.res.error, 600));
     assert_int_equal(x.res.evals, o.res.evals);
+    /* at 2^996 a tolerance of 1e-30 scales below the smallest double: it
+     * stays the least tolerance there is, never none (one round, no
+     * not_converged) */
+    s.tol_abs = 1e-30;
+    x = rule_run_spec_scaled("genz-continuous", 3, a3, u3, &s, 996);
+    assert_int_equal(x.err, 0);
+    assert_true(x.res.flags & QMC_FLAG_NOT_CONVERGED);
 }
 
 /* x^-0.99 on (0,1], declared singular: 100 in all. */
