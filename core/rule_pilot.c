@@ -115,7 +115,7 @@ double qmc__rule_tolerance(const qmc_integrate_spec *s, const qmc_result *res)
 /* One pilot of `evals` evaluations: 0 with *r and *t (its result, in f's
  * units, and the 99% quantile for its bar), QMC_ECANCELED with why set,
  * or 1 when it failed to run (too many dims for Sobol, memory).  Its
- * evaluations are added to res's. */
+ * evaluations and non-finite values are added to res's. */
 static int run_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, uint64_t evals,
                      qmc_result *res, char *why, size_t why_bytes, qmc_result *r, double *t)
 {
@@ -128,6 +128,10 @@ static int run_pilot(const qmc_integrate_spec *s, const qmc_integrand *f, uint64
     int err = qmc_integrate(&p, &sf.g, NULL, NULL, NULL, &rep, pwhy, sizeof pwhy);
     qmc__unscale_result(&rep.res, sf.e);
     res->evals += rep.res.evals;
+    /* values of f the rule's nodes never met, but f has them: said */
+    res->nonfinite += rep.res.nonfinite;
+    if (rep.res.nonfinite)
+        res->flags |= QMC_FLAG_NONFINITE;
     if (err == QMC_ECANCELED) {
         qmc__msg m;
         qmc__msg_init(&m, why, why_bytes);

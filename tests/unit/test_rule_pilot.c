@@ -41,6 +41,7 @@
  *   the caller's n: a refused round; n too big   the rule's flagged answer;
  *     for half the budget or not 2^k                 no cap, no witness
  *   NaN on a slab only rqmc's points reach         counted, nonfinite raised
+ *   NaN on a band only the pilot's points reach    counted, nonfinite raised
  *   a caller's tol_abs at 2^600                    the result at 2^0 times 2^600
  *   auto on x^-0.99 (Gauss-Kronrod flagged)        the rule's answer, no rqmc
  */
@@ -551,6 +552,41 @@ static void test_auto_witness_scales_the_tolerance(void **state)
     assert_true(x.res.flags & QMC_FLAG_NOT_CONVERGED);
 }
 
+/* The kink of a3, u3 in 2D, NaN on x0 in [0.32, 0.33), a band that
+ * none of the midpoint rule's nodes at 8 an axis, nor its check's, meet. */
+static void kink_with_nan_band(const void *ctx, const double *x, size_t n, uint32_t dims,
+                               double *out)
+{
+    (void)ctx;
+    for (size_t i = 0; i < n; i++) {
+        const double *p = x + i * dims;
+        out[i] = p[0] >= 0.32 && p[0] < 0.33
+                     ? NAN
+                     : exp(-a3[0] * fabs(p[0] - u3[0]) - a3[1] * fabs(p[1] - u3[1]));
+    }
+}
+
+static void test_pilot_counts_its_nonfinite(void **state)
+{
+    (void)state;
+    /* the rule meets no NaN; its pilot's 2048 points meet some 20: they
+     * are counted and said, and the pilot vouches for nothing */
+    qmc_integrand f = {.eval = kink_with_nan_band, .dims = 2,
+                       .smoothness = QMC_SMOOTH_CONTINUOUS, .name = "kink with a NaN band"};
+    qmc_integrate_spec s;
+    qmc_integrate_spec_init(&s);
+    s.method = QMC_METHOD_MIDPOINT;
+    s.n_axis = 8;
+    qmc_integrate_report rep;
+    char why[256];
+    assert_int_equal(qmc_integrate(&s, &f, NULL, NULL, NULL, &rep, why, sizeof why), 0);
+    assert_int_equal(rep.res.evals, 173 + 2048); /* the rule's, the pilot's */
+    assert_true(rep.res.nonfinite > 0 && rep.res.nonfinite < 100);
+    assert_true(rep.res.flags & QMC_FLAG_NONFINITE);
+    assert_true(rep.res.flags & QMC_FLAG_ERROR_UNRELIABLE);
+    assert_true(isfinite(rep.res.estimate));
+}
+
 /* x^-0.99 on (0,1], declared singular: 100 in all. */
 static void pow_099(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
 {
@@ -603,6 +639,7 @@ int main(void)
         cmocka_unit_test(test_auto_witness_refused_keeps_the_rule),
         cmocka_unit_test(test_auto_witness_counts_its_nonfinite),
         cmocka_unit_test(test_auto_witness_scales_the_tolerance),
+        cmocka_unit_test(test_pilot_counts_its_nonfinite),
         cmocka_unit_test(test_auto_keeps_a_singular_rule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
