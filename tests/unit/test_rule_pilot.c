@@ -489,32 +489,48 @@ static void test_auto_witness_refused_keeps_the_rule(void **state)
     }
 }
 
-/* The kink of a3, u3 in 2D, NaN on a slab of x0 that cubature's nodes
- * miss and RQMC's points do not. */
+/* The kink of a3, u3 in 2D, NaN where x0 lies in the band [lo, hi). */
+typedef struct nan_band {
+    double lo, hi;
+} nan_band;
+
 static void kink_with_nan(const void *ctx, const double *x, size_t n, uint32_t dims, double *out)
 {
-    (void)ctx;
+    const nan_band *b = ctx;
     for (size_t i = 0; i < n; i++) {
         const double *p = x + i * dims;
-        out[i] = p[0] >= 0.3141592 && p[0] < 0.3142592
+        out[i] = p[0] >= b->lo && p[0] < b->hi
                      ? NAN
                      : exp(-a3[0] * fabs(p[0] - u3[0]) - a3[1] * fabs(p[1] - u3[1]));
     }
 }
 
-static void test_auto_witness_counts_its_nonfinite(void **state)
+/* That integrand, declared continuous, by method m (budget: its default
+ * when 0), seed 7. */
+static qmc_integrate_report kink_with_nan_run(const nan_band *band, qmc_method m,
+                                              uint64_t max_evals)
 {
-    (void)state;
-    qmc_integrand f = {.eval = kink_with_nan, .dims = 2, .smoothness = QMC_SMOOTH_CONTINUOUS,
-                       .name = "kink with a NaN slab"};
+    qmc_integrand f = {.eval = kink_with_nan, .ctx = band, .dims = 2,
+                       .smoothness = QMC_SMOOTH_CONTINUOUS, .name = "kink with a NaN band"};
     qmc_integrate_spec s;
     qmc_integrate_spec_init(&s);
-    s.method = QMC_METHOD_AUTO;
-    s.max_evals = 200000;
+    s.method = m;
+    s.n_axis = 8;
+    if (max_evals)
+        s.max_evals = max_evals;
     s.sampling.seed = 7;
     qmc_integrate_report rep;
     char why[256];
     assert_int_equal(qmc_integrate(&s, &f, NULL, NULL, NULL, &rep, why, sizeof why), 0);
+    return rep;
+}
+
+static void test_auto_witness_counts_its_nonfinite(void **state)
+{
+    (void)state;
+    /* a slab that cubature's nodes miss and RQMC's points do not */
+    const nan_band slab = {0.3141592, 0.3142592};
+    qmc_integrate_report rep = kink_with_nan_run(&slab, QMC_METHOD_AUTO, 200000);
     /* whichever answer stands, the witness's NaNs are counted and said */
     assert_non_null(strstr(rep.auto_reason, "rqmc with the rest of the budget"));
     assert_true(rep.res.nonfinite > 0);
@@ -552,34 +568,14 @@ static void test_auto_witness_scales_the_tolerance(void **state)
     assert_true(x.res.flags & QMC_FLAG_NOT_CONVERGED);
 }
 
-/* The kink of a3, u3 in 2D, NaN on x0 in [0.32, 0.33), a band that
- * none of the midpoint rule's nodes at 8 an axis, nor its check's, meet. */
-static void kink_with_nan_band(const void *ctx, const double *x, size_t n, uint32_t dims,
-                               double *out)
-{
-    (void)ctx;
-    for (size_t i = 0; i < n; i++) {
-        const double *p = x + i * dims;
-        out[i] = p[0] >= 0.32 && p[0] < 0.33
-                     ? NAN
-                     : exp(-a3[0] * fabs(p[0] - u3[0]) - a3[1] * fabs(p[1] - u3[1]));
-    }
-}
-
 static void test_pilot_counts_its_nonfinite(void **state)
 {
     (void)state;
-    /* the rule meets no NaN; its pilot's 2048 points meet some 20: they
-     * are counted and said, and the pilot vouches for nothing */
-    qmc_integrand f = {.eval = kink_with_nan_band, .dims = 2,
-                       .smoothness = QMC_SMOOTH_CONTINUOUS, .name = "kink with a NaN band"};
-    qmc_integrate_spec s;
-    qmc_integrate_spec_init(&s);
-    s.method = QMC_METHOD_MIDPOINT;
-    s.n_axis = 8;
-    qmc_integrate_report rep;
-    char why[256];
-    assert_int_equal(qmc_integrate(&s, &f, NULL, NULL, NULL, &rep, why, sizeof why), 0);
+    /* a band that none of the midpoint rule's nodes at 8 an axis, nor
+     * its check's, meet; its pilot's 2048 points meet some 20: they are
+     * counted and said, and the pilot vouches for nothing */
+    const nan_band band = {0.32, 0.33};
+    qmc_integrate_report rep = kink_with_nan_run(&band, QMC_METHOD_MIDPOINT, 0);
     assert_int_equal(rep.res.evals, 173 + 2048); /* the rule's, the pilot's */
     assert_true(rep.res.nonfinite > 0 && rep.res.nonfinite < 100);
     assert_true(rep.res.flags & QMC_FLAG_NONFINITE);
